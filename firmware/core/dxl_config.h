@@ -1,0 +1,27 @@
+/* Build-time configuration of the protocol core. Every option is always defined (to a
+ * number), so a typo is a -Wundef error rather than a silent default. */
+#ifndef DXL_CONFIG_H
+#define DXL_CONFIG_H
+
+#define DXL_PROFILE_AX12 1  /* the 2006 AX-12 manual */
+#define DXL_PROFILE_AX12A 2 /* the later AX-12A e-manual, where POLICY.md says so */
+
+#ifndef DXL_PROFILE
+#define DXL_PROFILE DXL_PROFILE_AX12
+#endif
+#if DXL_PROFILE != DXL_PROFILE_AX12 && DXL_PROFILE != DXL_PROFILE_AX12A
+#error "DXL_PROFILE must be DXL_PROFILE_AX12 or DXL_PROFILE_AX12A"
+#endif
+
+/* This firmware's own version number, reported at address 2. */
+#define DXL_FIRMWARE_VERSION 1
+
+/* Tables that never change live in flash on the AVR (read with LPM through the __flash
+ * named address space of avr-gcc) and in ordinary const memory on the host. */
+#if defined(__AVR__)
+#define DXL_FLASH __flash
+#else
+#define DXL_FLASH
+#endif
+
+#endif

@@ -1,0 +1,138 @@
+#include "dxl_packet.h"
+
+#include <string.h>
+
+#include "dxl_protocol.h"
+
+/* Offsets in a candidate: FF FF ID LENGTH INSTRUCTION PARAMS... CHECKSUM */
+#define OFS_ID 2u
+#define OFS_LENGTH 3u
+#define OFS_INSTRUCTION 4u
+#define OFS_PARAMS 5u
+#define HEADER_BYTES 4u
+
+void dxl_finder_init(dxl_finder_t *finder) { memset(finder, 0, sizeof *finder); }
+
+uint8_t dxl_checksum(const uint8_t *id_length_body, uint16_t count) {
+  uint8_t sum = 0;
+  for (uint16_t i = 0; i < count; i++) {
+    sum = (uint8_t)(sum + id_length_body[i]);
+  }
+  return (uint8_t)~sum;
+}
+
+static void drop_front(dxl_finder_t *f, uint16_t count) {
+  if (count >= f->fill) {
+    f->fill = 0;
+  } else {
+    memmove(f->bytes, f->bytes + count, f->fill - count);
+    f->fill = (uint16_t)(f->fill - count);
+  }
+  f->examined = 0;
+  f->sum = 0;
+}
+
+static void apply_release(dxl_finder_t *f) {
+  if (f->release != 0) {
+    drop_front(f, f->release);
+    f->release = 0;
+  }
+}
+
+static uint16_t candidate_total_bytes(const dxl_finder_t *f) {
+  return (uint16_t)(HEADER_BYTES + f->bytes[OFS_LENGTH]);
+}
+
+static void describe(const dxl_finder_t *f, dxl_packet_t *p) {
+  p->id = f->bytes[OFS_ID];
+  p->instruction = f->bytes[OFS_INSTRUCTION];
+  p->param_count = (uint8_t)(f->bytes[OFS_LENGTH] - DXL_PACKET_MIN_LENGTH);
+  p->params = &f->bytes[OFS_PARAMS];
+  p->checksum = f->bytes[candidate_total_bytes(f) - 1u];
+}
+
+void dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms) {
+  if (finder->fill != 0 && (uint16_t)(now_ms - finder->last_byte_ms) > DXL_PACKET_GAP_TIMEOUT_MS) {
+    finder->fill = 0;
+    finder->examined = 0;
+    finder->release = 0;
+    finder->sum = 0;
+  }
+}
+
+void dxl_finder_push(dxl_finder_t *finder, uint8_t byte, uint16_t now_ms) {
+  dxl_finder_poll(finder, now_ms);
+  apply_release(finder);
+  if (finder->fill == DXL_PACKET_MAX_BYTES) {
+    drop_front(finder, 1); /* only if the caller skipped dxl_finder_next(): keep going */
+  }
+  finder->bytes[finder->fill++] = byte;
+  finder->last_byte_ms = now_ms;
+}
+
+dxl_find_result_t dxl_finder_next(dxl_finder_t *finder, dxl_packet_t *packet) {
+  dxl_finder_t *f = finder;
+  apply_release(f);
+  while (f->examined < f->fill) {
+    const uint8_t b = f->bytes[f->examined];
+    switch (f->examined) {
+    case 0: /* first header byte */
+      if (b != DXL_HEADER_BYTE) {
+        drop_front(f, 1);
+        continue;
+      }
+      break;
+    case 1: /* second header byte */
+      if (b != DXL_HEADER_BYTE) {
+        drop_front(f, 2);
+        continue;
+      }
+      break;
+    case OFS_ID:
+      if (b == DXL_HEADER_BYTE) { /* a third 0xFF: still the header */
+        drop_front(f, 1);
+        continue;
+      }
+      f->sum = b;
+      break;
+    case OFS_LENGTH:
+      if (b < DXL_PACKET_MIN_LENGTH) {
+        drop_front(f, 1);
+        continue;
+      }
+      f->sum = (uint8_t)(f->sum + b);
+      break;
+    default: /* body: instruction, parameters, checksum */
+      if (f->examined + 1u < candidate_total_bytes(f)) {
+        f->sum = (uint8_t)(f->sum + b);
+        break;
+      }
+      f->examined++;
+      describe(f, packet);
+      const uint8_t expected_checksum = (uint8_t)~f->sum;
+      if (expected_checksum == b) {
+        f->release = f->examined; /* the whole packet */
+        return DXL_FIND_PACKET;
+      }
+      f->release = 1; /* rescan from the second byte of the candidate */
+      return DXL_FIND_BAD_CHECKSUM;
+    }
+    f->examined++;
+  }
+  return DXL_FIND_NONE;
+}
+
+bool dxl_finder_awaiting_checksum(const dxl_finder_t *finder, dxl_packet_t *packet, uint8_t *expected_checksum) {
+  const dxl_finder_t *f = finder;
+  if (f->release != 0 || f->examined != f->fill || f->examined <= OFS_LENGTH ||
+      f->examined + 1u != candidate_total_bytes(f)) {
+    return false;
+  }
+  packet->id = f->bytes[OFS_ID];
+  packet->instruction = f->bytes[OFS_INSTRUCTION];
+  packet->param_count = (uint8_t)(f->bytes[OFS_LENGTH] - DXL_PACKET_MIN_LENGTH);
+  packet->params = &f->bytes[OFS_PARAMS];
+  *expected_checksum = (uint8_t)~f->sum;
+  packet->checksum = *expected_checksum;
+  return true;
+}

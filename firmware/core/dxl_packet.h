@@ -1,0 +1,70 @@
+/* The packet finder: turns a byte stream (fed one byte at a time, as the UART receive path
+ * delivers it) into Protocol 1.0 packets.
+ *
+ * Framing (POLICY.md "Framing and bus"): two or more 0xFF, ID (0..0xFE), LENGTH (>= 2),
+ * LENGTH-1 bytes of instruction and parameters, checksum = ~(ID + LENGTH + body) & 0xFF.
+ * Packets for any ID, and other servos' status packets, are framed the same way; choosing
+ * what to act on is the caller's business.
+ *
+ * Resynchronisation: the finder keeps the bytes of the candidate packet. A LENGTH below 2 or
+ * a wrong checksum drops only the first byte of the candidate and rescans the rest, so a valid
+ * packet that starts inside garbage is still found. A gap of more than
+ * DXL_PACKET_GAP_TIMEOUT_MS between two bytes discards the partial candidate.
+ *
+ * Use: dxl_finder_push() one byte, then call dxl_finder_next() until it returns
+ * DXL_FIND_NONE (one byte can complete more than one packet after a rescan). A returned
+ * packet's params point into the finder and stay valid until the next push or next call.
+ *
+ * Time is passed in (milliseconds, any origin, wrapping at 2^16); the finder never reads a
+ * clock. Worst-case rescan work after a bad checksum is O(n^2) in the candidate length
+ * (n <= 259), only for adversarial garbage.
+ */
+#ifndef DXL_PACKET_H
+#define DXL_PACKET_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#define DXL_PACKET_MAX_BYTES 259u /* FF FF ID LENGTH + LENGTH (<= 255) bytes */
+#define DXL_PACKET_MIN_LENGTH 2u  /* instruction + checksum */
+
+typedef struct {
+  uint8_t id;
+  uint8_t instruction; /* the error byte, when this is another servo's status packet */
+  uint8_t param_count; /* LENGTH - 2 */
+  const uint8_t *params;
+  uint8_t checksum; /* as received */
+} dxl_packet_t;
+
+typedef enum {
+  DXL_FIND_NONE = 0,         /* nothing (more) until further bytes arrive */
+  DXL_FIND_PACKET,           /* a packet with a good checksum */
+  DXL_FIND_BAD_CHECKSUM,     /* a framed packet whose checksum is wrong; its fields are reported */
+} dxl_find_result_t;
+
+typedef struct {
+  uint8_t bytes[DXL_PACKET_MAX_BYTES];
+  uint16_t fill;        /* bytes held */
+  uint16_t examined;    /* leading bytes of bytes[] accepted as the candidate so far */
+  uint16_t release;     /* bytes to drop before the next scan (a returned result's) */
+  uint8_t sum;          /* ID + LENGTH + body over the examined bytes */
+  uint16_t last_byte_ms;
+} dxl_finder_t;
+
+void dxl_finder_init(dxl_finder_t *finder);
+void dxl_finder_push(dxl_finder_t *finder, uint8_t byte, uint16_t now_ms);
+dxl_find_result_t dxl_finder_next(dxl_finder_t *finder, dxl_packet_t *packet);
+
+/* Discards a partial packet if no byte came for more than DXL_PACKET_GAP_TIMEOUT_MS. Call
+ * it now and then while idle (the gap is also checked on every push). */
+void dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms);
+
+/* True when every byte of a packet but its checksum is in: *packet then describes it and
+ * *expected_checksum is the checksum that would make it valid. Lets the caller prepare the
+ * reply while the last byte is still on the wire. */
+bool dxl_finder_awaiting_checksum(const dxl_finder_t *finder, dxl_packet_t *packet, uint8_t *expected_checksum);
+
+/* The Protocol 1.0 checksum of ID, LENGTH and the body bytes. */
+uint8_t dxl_checksum(const uint8_t *id_length_body, uint16_t count);
+
+#endif

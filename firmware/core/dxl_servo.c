@@ -1,0 +1,324 @@
+#include "dxl_servo.h"
+
+#include <string.h>
+
+#include "dxl_protocol.h"
+
+/* The reply rules in one table (POLICY.md "Replies", "Instructions and their errors").
+ * min_params/max_params: parameter counts that fit the instruction (else Instruction Error).
+ * min_status_level: the Status Return Level from which a unicast packet is answered.
+ * Broadcast packets are answered only when answers_broadcast is set. An instruction not in
+ * the table is an Instruction Error, answered from level 2. */
+typedef struct {
+  uint8_t instruction;
+  uint8_t min_params;
+  uint8_t max_params;
+  uint8_t min_status_level;
+  uint8_t answers_broadcast;
+} instruction_rule_t;
+
+#define ANY_PARAMS 0xFFu
+#define STATUS_LEVEL_ALL 2u
+#define BROADCAST_PING_ANSWERED (DXL_PROFILE == DXL_PROFILE_AX12)
+
+static const DXL_FLASH instruction_rule_t instruction_rules[] = {
+    {DXL_INST_PING, 0, 0, 0, BROADCAST_PING_ANSWERED},
+    {DXL_INST_READ, 2, 2, 1, 0},
+    {DXL_INST_WRITE, 2, ANY_PARAMS, STATUS_LEVEL_ALL, 0},
+    {DXL_INST_REG_WRITE, 2, ANY_PARAMS, STATUS_LEVEL_ALL, 0},
+    {DXL_INST_ACTION, 0, 0, STATUS_LEVEL_ALL, 0},
+    {DXL_INST_RESET, 0, 0, STATUS_LEVEL_ALL, 0},
+    {DXL_INST_SYNC_WRITE, 2, ANY_PARAMS, STATUS_LEVEL_ALL, 0},
+};
+#define INSTRUCTION_RULE_COUNT (sizeof instruction_rules / sizeof instruction_rules[0])
+
+static const instruction_rule_t unknown_instruction_rule = {0, 0, 0, STATUS_LEVEL_ALL, 0};
+
+static instruction_rule_t rule_for(uint8_t instruction) {
+  for (uint8_t i = 0; i < INSTRUCTION_RULE_COUNT; i++) {
+    if (instruction_rules[i].instruction == instruction) {
+      return instruction_rules[i];
+    }
+  }
+  return unknown_instruction_rule;
+}
+
+static bool window_overlaps(uint8_t start, uint8_t len, uint8_t first_addr, uint8_t last_addr) {
+  return start <= last_addr && (uint16_t)start + len > first_addr;
+}
+
+/* Angle Limit condition (POLICY.md "Goal Position outside CW..CCW Angle Limit"), for the table
+ * as it is after writing data[0..len) at start (len 0: as it is now). In wheel mode every
+ * Goal Position written lies outside the limits. */
+static bool angle_limit_after_write(const dxl_servo_t *s, uint8_t start, const uint8_t *data, uint8_t len) {
+  const uint16_t cw_limit = ct_u16_after_write(s->table, CT_ADDR_CW_ANGLE_LIMIT, start, data, len);
+  const uint16_t ccw_limit = ct_u16_after_write(s->table, CT_ADDR_CCW_ANGLE_LIMIT, start, data, len);
+  if (cw_limit == 0 && ccw_limit == 0) { /* wheel mode */
+    const bool goal_written = len != 0 && window_overlaps(start, len, CT_ADDR_GOAL_POSITION, CT_ADDR_GOAL_POSITION + 1);
+    return goal_written || (ct_is_wheel_mode(s->table) && s->goal_written_in_wheel_mode);
+  }
+  const uint16_t goal = ct_u16_after_write(s->table, CT_ADDR_GOAL_POSITION, start, data, len);
+  return goal < cw_limit || goal > ccw_limit;
+}
+
+uint8_t dxl_servo_conditions(const dxl_servo_t *servo) {
+  uint8_t conditions = servo->held_conditions & (uint8_t)(DXL_ERR_CONDITIONS & ~DXL_ERR_ANGLE_LIMIT);
+  if (angle_limit_after_write(servo, 0, NULL, 0)) {
+    conditions |= DXL_ERR_ANGLE_LIMIT;
+  }
+  return conditions;
+}
+
+uint8_t dxl_servo_take_events(dxl_servo_t *servo) {
+  const uint8_t events = servo->pending_events;
+  servo->pending_events = 0;
+  return events;
+}
+
+static void clear_registered(dxl_servo_t *s) {
+  s->reg_len = 0;
+  s->table[CT_ADDR_REGISTERED_INSTRUCTION] = 0;
+}
+
+void dxl_servo_power_up(dxl_servo_t *servo, const uint8_t *eeprom_area, uint16_t present_position) {
+  memset(servo, 0, sizeof *servo);
+  ct_load_factory_eeprom(servo->table);
+  if (eeprom_area != NULL) {
+    memcpy(servo->table, eeprom_area, CT_EEPROM_SIZE);
+    ct_load_factory_read_only(servo->table); /* model, version, calibration come from this firmware */
+  }
+  ct_load_power_up_ram(servo->table, present_position);
+}
+
+void dxl_servo_factory_reset(dxl_servo_t *servo) {
+  const uint16_t present_position = ct_get_u16(servo->table, CT_ADDR_PRESENT_POSITION);
+  const uint8_t held_conditions = servo->held_conditions;
+  dxl_servo_power_up(servo, NULL, present_position);
+  servo->held_conditions = held_conditions;
+}
+
+/* Effects on the UART and EEPROM of a write window, for response->after. */
+static uint8_t after_flags_of_write(uint8_t start, uint8_t len) {
+  uint8_t after = 0;
+  if (window_overlaps(start, len, 0, CT_EEPROM_SIZE - 1)) {
+    after |= DXL_AFTER_PERSIST;
+  }
+  if (window_overlaps(start, len, CT_ADDR_BAUD_RATE, CT_ADDR_BAUD_RATE)) {
+    after |= DXL_AFTER_APPLY_BAUD;
+  }
+  return after;
+}
+
+static void plan_write(dxl_response_t *r, uint8_t action, uint8_t start, const uint8_t *data, uint8_t len) {
+  r->action = action;
+  r->window_start = start;
+  r->window_data = data;
+  r->window_len = len;
+}
+
+/* Prepares the side effect of an instruction addressed to this servo (or broadcast) and
+ * returns its event error bits. */
+static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, bool broadcast, dxl_response_t *r) {
+  const uint8_t *params = p->params;
+  switch (p->instruction) {
+  case DXL_INST_PING:
+    return 0;
+  case DXL_INST_READ: {
+    const uint8_t start = params[0];
+    const uint8_t len = params[1];
+    if (len == 0 || start >= CT_SIZE || len > CT_SIZE - start) {
+      return DXL_ERR_RANGE;
+    }
+    r->window_start = start;
+    r->window_len = len;
+    return 0;
+  }
+  case DXL_INST_WRITE:
+  case DXL_INST_REG_WRITE: {
+    const uint8_t len = (uint8_t)(p->param_count - 1u);
+    const uint8_t error = ct_check_write(s->table, params[0], &params[1], len);
+    if (error == 0) {
+      plan_write(r, p->instruction == DXL_INST_WRITE ? DXL_ACTION_WRITE : DXL_ACTION_REGISTER, params[0], &params[1],
+                 len);
+    }
+    return error;
+  }
+  case DXL_INST_ACTION:
+    if (s->table[CT_ADDR_REGISTERED_INSTRUCTION] == 0) {
+      return DXL_ERR_INSTRUCTION;
+    }
+    /* Validated at REG_WRITE; checked again in case Lock or the limits changed since. */
+    if (ct_check_write(s->table, s->reg_start, s->reg_data, s->reg_len) != 0) {
+      return DXL_ERR_RANGE;
+    }
+    plan_write(r, DXL_ACTION_RUN_REGISTERED, s->reg_start, s->reg_data, s->reg_len);
+    return 0;
+  case DXL_INST_RESET:
+    if (s->table[CT_ADDR_LOCK] != 0) {
+      return DXL_ERR_INSTRUCTION;
+    }
+    r->action = DXL_ACTION_RESET;
+    return 0;
+  case DXL_INST_SYNC_WRITE: {
+    if (!broadcast) {
+      return DXL_ERR_INSTRUCTION;
+    }
+    const uint8_t start = params[0];
+    const uint8_t slice_data_len = params[1];
+    const uint8_t slices_bytes = (uint8_t)(p->param_count - 2u);
+    const uint8_t slice_len = (uint8_t)(slice_data_len + 1u);
+    if (slice_data_len == 0 || slices_bytes == 0 || slices_bytes % slice_len != 0) {
+      return 0; /* LENGTH does not fit: the whole packet is ignored */
+    }
+    for (uint8_t ofs = 2; ofs < p->param_count; ofs = (uint8_t)(ofs + slice_len)) {
+      if (params[ofs] != s->table[CT_ADDR_ID]) {
+        continue;
+      }
+      const uint8_t error = ct_check_write(s->table, start, &params[ofs + 1u], slice_data_len);
+      if (error == 0) {
+        plan_write(r, DXL_ACTION_WRITE, start, &params[ofs + 1u], slice_data_len);
+      }
+      return error;
+    }
+    return 0;
+  }
+  default:
+    return DXL_ERR_INSTRUCTION;
+  }
+}
+
+static void encode_status(const dxl_servo_t *s, uint8_t error, const uint8_t *params, uint8_t param_count,
+                          dxl_response_t *r) {
+  uint8_t *out = r->bytes;
+  out[0] = DXL_HEADER_BYTE;
+  out[1] = DXL_HEADER_BYTE;
+  out[2] = s->table[CT_ADDR_ID];
+  out[3] = (uint8_t)(param_count + 2u);
+  out[4] = error;
+  if (param_count != 0) {
+    memcpy(&out[5], params, param_count);
+  }
+  out[5u + param_count] = dxl_checksum(&out[2], (uint16_t)(3u + param_count));
+  r->length = (uint8_t)(6u + param_count);
+  r->delay_us = (uint16_t)(DXL_RETURN_DELAY_UNIT_US * s->table[CT_ADDR_RETURN_DELAY_TIME]);
+}
+
+static void response_clear(dxl_response_t *r) {
+  r->length = 0;
+  r->delay_us = 0;
+  r->after = 0;
+  r->action = DXL_ACTION_NONE;
+  r->window_start = 0;
+  r->window_len = 0;
+  r->window_data = NULL;
+  r->events = 0;
+}
+
+void dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response) {
+  const dxl_servo_t *s = servo;
+  dxl_response_t *r = response;
+  response_clear(r);
+  const bool broadcast = packet->id == DXL_ID_BROADCAST;
+  if (!broadcast && packet->id != s->table[CT_ADDR_ID]) {
+    return; /* another servo's packet, or a status packet on the bus */
+  }
+  const instruction_rule_t rule = rule_for(packet->instruction);
+  const bool fits = rule.instruction == packet->instruction && packet->param_count >= rule.min_params &&
+                    (rule.max_params == ANY_PARAMS || packet->param_count <= rule.max_params);
+  r->events = fits ? plan_instruction(s, packet, broadcast, r) : DXL_ERR_INSTRUCTION;
+
+  bool angle_limit;
+  switch (r->action) {
+  case DXL_ACTION_WRITE:
+  case DXL_ACTION_RUN_REGISTERED:
+    r->after = after_flags_of_write(r->window_start, r->window_len);
+    angle_limit = angle_limit_after_write(s, r->window_start, r->window_data, r->window_len);
+    break;
+  case DXL_ACTION_RESET:
+    r->after = DXL_AFTER_FACTORY_RESET | DXL_AFTER_APPLY_BAUD | DXL_AFTER_PERSIST;
+    angle_limit = angle_limit_after_write(s, 0, NULL, 0);
+    break;
+  default:
+    angle_limit = angle_limit_after_write(s, 0, NULL, 0);
+    break;
+  }
+
+  const bool answer = broadcast ? rule.answers_broadcast != 0
+                                : s->table[CT_ADDR_STATUS_RETURN_LEVEL] >= rule.min_status_level;
+  if (!answer) {
+    return;
+  }
+  uint8_t error = (uint8_t)(r->events | (s->held_conditions & (DXL_ERR_CONDITIONS & ~DXL_ERR_ANGLE_LIMIT)));
+  if (angle_limit) {
+    error |= DXL_ERR_ANGLE_LIMIT;
+  }
+  const bool returns_data = fits && packet->instruction == DXL_INST_READ && r->events == 0;
+  encode_status(s, error, returns_data ? &s->table[r->window_start] : NULL, returns_data ? r->window_len : 0, r);
+}
+
+/* The one write path into the table for instructions (WRITE, ACTION, SYNC_WRITE). The
+ * window was checked by ct_check_write(). */
+static void apply_write(dxl_servo_t *s, uint8_t start, const uint8_t *data, uint8_t len) {
+  const bool was_wheel_mode = ct_is_wheel_mode(s->table);
+  for (uint8_t i = 0; i < len; i++) {
+    const uint8_t addr = (uint8_t)(start + i);
+    if (addr == CT_ADDR_REGISTERED_INSTRUCTION) {
+      if (data[i] == 0) {
+        clear_registered(s); /* writing 0 discards the registered write; 1 changes nothing */
+      }
+      continue;
+    }
+    s->table[addr] = data[i];
+  }
+  if (ct_is_wheel_mode(s->table)) {
+    const bool goal_written = window_overlaps(start, len, CT_ADDR_GOAL_POSITION, CT_ADDR_GOAL_POSITION + 1);
+    s->goal_written_in_wheel_mode = goal_written || (was_wheel_mode && s->goal_written_in_wheel_mode);
+  } else {
+    s->goal_written_in_wheel_mode = false;
+  }
+}
+
+void dxl_servo_commit(dxl_servo_t *servo, const dxl_response_t *response) {
+  dxl_servo_t *s = servo;
+  const dxl_response_t *r = response;
+  s->pending_events |= r->events;
+  switch (r->action) {
+  case DXL_ACTION_WRITE:
+    apply_write(s, r->window_start, r->window_data, r->window_len);
+    break;
+  case DXL_ACTION_REGISTER:
+    memcpy(s->reg_data, r->window_data, r->window_len);
+    s->reg_start = r->window_start;
+    s->reg_len = r->window_len;
+    s->table[CT_ADDR_REGISTERED_INSTRUCTION] = 1;
+    break;
+  case DXL_ACTION_RUN_REGISTERED: {
+    uint8_t data[DXL_REG_SLOT_BYTES];
+    const uint8_t start = s->reg_start;
+    const uint8_t len = s->reg_len;
+    memcpy(data, s->reg_data, len);
+    clear_registered(s);
+    apply_write(s, start, data, len);
+    break;
+  }
+  default: /* RESET runs after the reply: DXL_AFTER_FACTORY_RESET */
+    break;
+  }
+}
+
+void dxl_servo_handle(dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response) {
+  dxl_servo_prepare(servo, packet, response);
+  dxl_servo_commit(servo, response);
+}
+
+void dxl_servo_reject_checksum(dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response) {
+  response_clear(response);
+  if (packet->id != servo->table[CT_ADDR_ID]) {
+    return;
+  }
+  response->events = DXL_ERR_CHECKSUM;
+  servo->pending_events |= DXL_ERR_CHECKSUM;
+  if (servo->table[CT_ADDR_STATUS_RETURN_LEVEL] >= STATUS_LEVEL_ALL) {
+    encode_status(servo, (uint8_t)(DXL_ERR_CHECKSUM | dxl_servo_conditions(servo)), NULL, 0, response);
+  }
+}

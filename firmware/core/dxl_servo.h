@@ -1,0 +1,97 @@
+/* One AX-12's protocol behaviour: the control table, the REG_WRITE slot and the seven
+ * instructions, with Status Return Level, broadcast and error semantics from POLICY.md.
+ *
+ * Handling a packet is split in two so the firmware can start the reply the moment the last
+ * byte arrives:
+ *   dxl_servo_prepare()  decides everything about a packet (reply bytes, when it may start,
+ *                        what changes after it) from the packet and the current state, and
+ *                        changes nothing. It may run before the checksum byte has arrived.
+ *   dxl_servo_commit()   applies the prepared side effects once the checksum was good.
+ * dxl_servo_handle() does both. After the reply's last byte has left (or at once when there
+ * is no reply) the caller acts on response.after (see DXL_AFTER_*).
+ */
+#ifndef DXL_SERVO_H
+#define DXL_SERVO_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "dxl_packet.h"
+#include "dxl_table.h"
+
+/* Longest write a REG_WRITE can hold: the longest run of writable addresses (24..35).
+ * Tested against ct_longest_writable_run(). */
+#define DXL_REG_SLOT_BYTES 12u
+
+/* Longest status packet: a READ of the whole table. */
+#define DXL_REPLY_MAX_BYTES (6u + CT_SIZE)
+
+/* What must happen after the reply has left, in this order. */
+#define DXL_AFTER_FACTORY_RESET 0x01u /* call dxl_servo_factory_reset() */
+#define DXL_AFTER_APPLY_BAUD 0x02u    /* reprogram the UART from the Baud Rate register */
+#define DXL_AFTER_PERSIST 0x04u       /* the EEPROM area (0..23) changed: persist it */
+
+/* What a prepared packet will do when committed. */
+typedef enum {
+  DXL_ACTION_NONE = 0,
+  DXL_ACTION_WRITE,         /* write the window */
+  DXL_ACTION_REGISTER,      /* hold the window in the REG_WRITE slot */
+  DXL_ACTION_RUN_REGISTERED,
+  DXL_ACTION_RESET,         /* factory reset, after the reply */
+} dxl_action_t;
+
+typedef struct {
+  /* The status packet; length 0 = stay silent. */
+  uint8_t bytes[DXL_REPLY_MAX_BYTES];
+  uint8_t length;
+  uint16_t delay_us; /* after the stop bit of the packet's last byte: 2 us x Return Delay Time */
+  uint8_t after;     /* DXL_AFTER_* */
+  /* The prepared side effect. */
+  uint8_t action; /* dxl_action_t */
+  /* The control-table window the packet reads (READ) or writes (data: the bytes to write,
+   * pointing into the packet or the REG_WRITE slot). */
+  uint8_t window_start;
+  uint8_t window_len;
+  const uint8_t *window_data;
+  uint8_t events;            /* event error bits this packet raised (range, checksum, instruction) */
+} dxl_response_t;
+
+typedef struct {
+  uint8_t table[CT_SIZE];
+  /* REG_WRITE slot; Registered Instruction (address 44) tells whether it holds a write. */
+  uint8_t reg_start;
+  uint8_t reg_len;
+  uint8_t reg_data[DXL_REG_SLOT_BYTES];
+  /* In wheel mode any Goal Position written is outside the limits: remembered here. */
+  bool goal_written_in_wheel_mode;
+  /* Conditions the control and alarm layer maintains: DXL_ERR_VOLTAGE, _OVERHEATING,
+   * _OVERLOAD. (The Angle Limit condition is derived from the table.) */
+  uint8_t held_conditions;
+  /* Event bits raised since the alarm layer last took them (dxl_servo_take_events). */
+  uint8_t pending_events;
+} dxl_servo_t;
+
+/* Power-up (POLICY.md "Power-up"): the EEPROM area from eeprom_area (CT_EEPROM_SIZE bytes,
+ * already integrity-checked by the caller) or factory defaults when it is NULL; the RAM area
+ * at its power-up values with Goal Position = present_position. */
+void dxl_servo_power_up(dxl_servo_t *servo, const uint8_t *eeprom_area, uint16_t present_position);
+
+/* RESET: factory defaults for the whole table; the RAM area as at power-up with the present
+ * position kept. Lock is not cleared by RESET (it refuses to run while locked). */
+void dxl_servo_factory_reset(dxl_servo_t *servo);
+
+void dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response);
+void dxl_servo_commit(dxl_servo_t *servo, const dxl_response_t *response);
+void dxl_servo_handle(dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response);
+
+/* A framed packet whose checksum was wrong: Checksum Error reply (Status Return Level 2) when
+ * it was addressed to this servo, silence otherwise. Nothing else changes. */
+void dxl_servo_reject_checksum(dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response);
+
+/* Error bits that hold now: the held conditions plus Angle Limit. */
+uint8_t dxl_servo_conditions(const dxl_servo_t *servo);
+
+/* Returns and clears the event bits raised since the last call. */
+uint8_t dxl_servo_take_events(dxl_servo_t *servo);
+
+#endif

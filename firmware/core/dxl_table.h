@@ -1,0 +1,87 @@
+/* The control table: one flat array of 50 bytes behind one write path.
+ *
+ * Everything here derives from CT_ITEMS (ct_items.h): the address constants, the descriptor
+ * table, defaults, range checks and the Lock rules. The table is stored little-endian as the
+ * protocol sends it. Addresses 0..CT_EEPROM_SIZE-1 are the persistent area.
+ */
+#ifndef DXL_TABLE_H
+#define DXL_TABLE_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "ct_items.h"
+#include "dxl_config.h"
+
+#define CT_SIZE 50u        /* addresses 0..49 */
+#define CT_EEPROM_SIZE 24u /* addresses 0..23 persist */
+
+enum ct_access { CT_NONE = 0, CT_R = 1, CT_RW = 2 };
+
+/* CT_ADDR_<NAME>: the address of each item. */
+enum ct_addr {
+#define CT_X_ADDR(name, addr, size, acc, acc_a, min, max, def, def_a) CT_ADDR_##name = (addr),
+  CT_ITEMS(CT_X_ADDR)
+#undef CT_X_ADDR
+};
+
+/* CT_IDX_<NAME>: the position of each item in ct_items[]. */
+enum ct_index {
+#define CT_X_INDEX(name, addr, size, acc, acc_a, min, max, def, def_a) CT_IDX_##name,
+  CT_ITEMS(CT_X_INDEX)
+#undef CT_X_INDEX
+  CT_ITEM_COUNT
+};
+
+/* One item as the built profile sees it. */
+typedef struct {
+  uint8_t addr;
+  uint8_t size_bytes; /* 1 or 2 */
+  uint8_t access;     /* enum ct_access */
+  uint16_t min;
+  uint16_t max;
+  uint16_t factory_default;
+} ct_desc_t;
+
+extern const DXL_FLASH ct_desc_t ct_items[CT_ITEM_COUNT];
+
+/* Index into ct_items[] of the item that contains address addr (addr < CT_SIZE). */
+uint8_t ct_item_index_at(uint8_t addr);
+
+uint16_t ct_get_u16(const uint8_t *table, uint8_t addr);
+void ct_set_u16(uint8_t *table, uint8_t addr, uint16_t value);
+
+/* Factory defaults of the EEPROM area (0..23). */
+void ct_load_factory_eeprom(uint8_t *table);
+/* Factory values of the items of the EEPROM area that are not writable (model number,
+ * firmware version, calibration, reserved): they describe this firmware, not the image. */
+void ct_load_factory_read_only(uint8_t *table);
+/* Power-up values of the RAM area (24..49) from the EEPROM area and Present Position:
+ * Goal Position = present_position, Torque Limit = Max Torque (POLICY.md "Power-up"). */
+void ct_load_power_up_ram(uint8_t *table, uint16_t present_position);
+
+/* True when both angle limits are 0 (endless turn). */
+bool ct_is_wheel_mode(const uint8_t *table);
+
+/* The value a byte of the table would have after writing data[0..len) at start. */
+static inline uint8_t ct_byte_after_write(const uint8_t *table, uint8_t addr, uint8_t start, const uint8_t *data,
+                                          uint8_t len) {
+  return (addr >= start && addr - start < len) ? data[addr - start] : table[addr];
+}
+
+/* The value the 16-bit item at addr would hold after writing data[0..len) at start. */
+static inline uint16_t ct_u16_after_write(const uint8_t *table, uint8_t addr, uint8_t start, const uint8_t *data,
+                                          uint8_t len) {
+  return (uint16_t)(ct_byte_after_write(table, addr, start, data, len) |
+                    ((uint16_t)ct_byte_after_write(table, (uint8_t)(addr + 1), start, data, len) << 8));
+}
+
+/* Checks a write of data[0..len) at address start as a whole, against access, range and Lock
+ * rules of the built profile. Returns 0 when the whole write is acceptable, else
+ * DXL_ERR_RANGE. Writes nothing. len 0 is a Range Error. */
+uint8_t ct_check_write(const uint8_t *table, uint8_t start, const uint8_t *data, uint8_t len);
+
+/* Longest window of consecutive writable addresses (for the REG_WRITE slot size). */
+uint8_t ct_longest_writable_run(void);
+
+#endif
