@@ -1,0 +1,184 @@
+#include "dxl_control.h"
+
+#include "dxl_protocol.h"
+
+#define DIRECTION_CW_BIT 0x400u /* Present Speed / Load / wheel Moving Speed: bit 10 = CW */
+#define MAGNITUDE_MASK 0x3FFu
+#define SPEED_FILTER_SHIFT 4u /* IIR on the per-tick position change: time constant 16 ticks */
+/* counts per tick << 8  ->  0.111 rpm units: x 1000 ticks/s / 2.2711 / 256 = x 1.7200 = x 55 / 32 */
+#define SPEED_Q8_TO_UNITS_MUL 55u
+#define SPEED_Q8_TO_UNITS_SHIFT 5u
+#define SLOPE_SHIFT_MIN 1u /* slope acts as 2.. */
+#define SLOPE_SHIFT_MAX 8u /* ..256 */
+
+void dxl_control_init(dxl_control_t *control) {
+  *control = (dxl_control_t){0};
+}
+
+uint8_t dxl_control_slope_shift(uint8_t slope) {
+  uint8_t shift = SLOPE_SHIFT_MIN;
+  while (shift < SLOPE_SHIFT_MAX && (1u << shift) < slope) {
+    shift++;
+  }
+  return shift;
+}
+
+int16_t dxl_control_compliance_drive(int16_t error_counts, uint8_t cw_margin, uint8_t ccw_margin, uint8_t cw_slope,
+                                     uint8_t ccw_slope, uint16_t punch, uint16_t torque_limit) {
+  const bool position_cw_of_setpoint = error_counts > 0;
+  const uint16_t magnitude = (uint16_t)(position_cw_of_setpoint ? error_counts : -error_counts);
+  const uint8_t margin = position_cw_of_setpoint ? cw_margin : ccw_margin;
+  if (magnitude <= margin) {
+    return 0;
+  }
+  const uint16_t limit = torque_limit > DXL_DRIVE_MAX ? DXL_DRIVE_MAX : torque_limit;
+  const uint16_t step = punch < limit ? punch : limit;
+  const uint8_t shift = dxl_control_slope_shift(position_cw_of_setpoint ? cw_slope : ccw_slope);
+  uint32_t drive = step + (((uint32_t)(limit - step) * (uint32_t)(magnitude - margin)) >> shift);
+  if (drive > limit) {
+    drive = limit;
+  }
+  return position_cw_of_setpoint ? (int16_t)drive : (int16_t)-(int16_t)drive;
+}
+
+static uint16_t signed_to_register(int16_t value) {
+  const uint16_t magnitude = (uint16_t)(value < 0 ? -value : value);
+  return (uint16_t)((magnitude > MAGNITUDE_MASK ? MAGNITUDE_MASK : magnitude) | (value < 0 ? DIRECTION_CW_BIT : 0u));
+}
+
+static uint16_t clamp_u16(uint16_t value, uint16_t low, uint16_t high) {
+  return value < low ? low : (value > high ? high : value);
+}
+
+/* Moves the setpoint toward goal by at most the Moving Speed step; speed 0 jumps. */
+static void advance_setpoint(dxl_control_t *c, uint16_t goal_counts, uint16_t moving_speed) {
+  const int32_t goal_q16 = (int32_t)goal_counts << 16;
+  const int32_t step_q16 = (int32_t)(moving_speed & MAGNITUDE_MASK) * DXL_SPEED_UNIT_Q16_PER_TICK;
+  if (step_q16 == 0 || c->setpoint_q16 == goal_q16) {
+    c->setpoint_q16 = goal_q16;
+  } else if (c->setpoint_q16 < goal_q16) {
+    c->setpoint_q16 = (goal_q16 - c->setpoint_q16 > step_q16) ? c->setpoint_q16 + step_q16 : goal_q16;
+  } else {
+    c->setpoint_q16 = (c->setpoint_q16 - goal_q16 > step_q16) ? c->setpoint_q16 - step_q16 : goal_q16;
+  }
+}
+
+static uint8_t measured_conditions(const uint8_t *table, const dxl_sensors_t *in, bool overloaded) {
+  uint8_t held = 0;
+  if (in->voltage_dv < table[CT_ADDR_LOWEST_LIMIT_VOLTAGE] || in->voltage_dv > table[CT_ADDR_HIGHEST_LIMIT_VOLTAGE]) {
+    held |= DXL_ERR_VOLTAGE;
+  }
+  if (in->temperature_c > table[CT_ADDR_HIGHEST_LIMIT_TEMP]) {
+    held |= DXL_ERR_OVERHEATING;
+  }
+  if (overloaded) {
+    held |= DXL_ERR_OVERLOAD;
+  }
+  return held;
+}
+
+static bool alarm_led_output(dxl_control_t *c, const uint8_t *table, uint8_t active_alarms) {
+  if ((active_alarms & table[CT_ADDR_ALARM_LED]) != 0) {
+    c->alarm_led_ms = DXL_ALARM_LED_HOLD_MS;
+  } else if (c->alarm_led_ms != 0) {
+    c->alarm_led_ms--;
+  }
+  if (c->alarm_led_ms == 0) {
+    c->blink_phase_ms = 0;
+    return table[CT_ADDR_LED] != 0;
+  }
+  c->blink_phase_ms++;
+  if (c->blink_phase_ms >= 2u * DXL_ALARM_BLINK_HALF_PERIOD_MS) {
+    c->blink_phase_ms = 0;
+  }
+  return c->blink_phase_ms < DXL_ALARM_BLINK_HALF_PERIOD_MS;
+}
+
+int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_sensors_t *sensors, bool *led_on) {
+  dxl_control_t *c = control;
+  uint8_t *table = servo->table;
+  const uint16_t position = sensors->position_counts;
+
+  if (!c->started) {
+    c->started = true;
+    c->last_position_counts = position;
+    c->setpoint_q16 = (int32_t)position << 16;
+  }
+  const int16_t delta = (int16_t)(position - c->last_position_counts);
+  c->last_position_counts = position;
+  c->speed_q8 = (int16_t)(c->speed_q8 + (((int16_t)(delta * 256) - c->speed_q8) >> SPEED_FILTER_SHIFT));
+  const int16_t speed_units =
+      (int16_t)(((int32_t)c->speed_q8 * (int32_t)SPEED_Q8_TO_UNITS_MUL) >> SPEED_Q8_TO_UNITS_SHIFT);
+
+  ct_set_u16(table, CT_ADDR_PRESENT_POSITION, position);
+  ct_set_u16(table, CT_ADDR_PRESENT_SPEED, signed_to_register(speed_units));
+  table[CT_ADDR_PRESENT_VOLTAGE] = sensors->voltage_dv;
+  table[CT_ADDR_PRESENT_TEMPERATURE] = sensors->temperature_c;
+
+  /* Alarms first, so a shutdown takes effect in this tick's drive. */
+  servo->held_conditions = measured_conditions(table, sensors, c->overload_ms >= DXL_OVERLOAD_WINDOW_MS);
+  const uint8_t active_alarms = (uint8_t)(dxl_servo_conditions(servo) | dxl_servo_take_events(servo));
+  if ((active_alarms & table[CT_ADDR_ALARM_SHUTDOWN]) != 0 && table[CT_ADDR_TORQUE_ENABLE] != 0) {
+    table[CT_ADDR_TORQUE_ENABLE] = 0;
+#if DXL_PROFILE == DXL_PROFILE_AX12A
+    ct_set_u16(table, CT_ADDR_TORQUE_LIMIT, 0);
+#endif
+  }
+  *led_on = alarm_led_output(c, table, active_alarms);
+
+  const bool torque_enabled = table[CT_ADDR_TORQUE_ENABLE] != 0;
+  if (torque_enabled && !c->torque_was_enabled) {
+    c->setpoint_q16 = (int32_t)position << 16; /* no jump when torque comes on */
+  }
+  c->torque_was_enabled = torque_enabled;
+
+  const uint16_t torque_limit = ct_get_u16(table, CT_ADDR_TORQUE_LIMIT);
+  const uint16_t moving_speed = ct_get_u16(table, CT_ADDR_MOVING_SPEED);
+  int16_t drive = 0;
+  bool demand_exceeds_limit = false;
+  bool moving = false;
+  if (!torque_enabled) {
+    c->setpoint_q16 = (int32_t)position << 16;
+  } else if (ct_is_wheel_mode(table)) {
+    const uint16_t wanted = moving_speed & MAGNITUDE_MASK;
+    const uint16_t applied = wanted < torque_limit ? wanted : torque_limit;
+    drive = (moving_speed & DIRECTION_CW_BIT) ? (int16_t)-(int16_t)applied : (int16_t)applied;
+    demand_exceeds_limit = wanted != 0 && wanted >= torque_limit;
+    moving = drive != 0;
+    c->setpoint_q16 = (int32_t)position << 16;
+  } else {
+    const uint16_t goal = clamp_u16(ct_get_u16(table, CT_ADDR_GOAL_POSITION), ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT),
+                                    ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT));
+    advance_setpoint(c, goal, moving_speed);
+    const int16_t setpoint = (int16_t)((c->setpoint_q16 + 0x8000L) >> 16);
+    const int16_t error = (int16_t)(setpoint - (int16_t)position);
+    const uint8_t cw_margin = table[CT_ADDR_CW_COMPLIANCE_MARGIN];
+    const uint8_t ccw_margin = table[CT_ADDR_CCW_COMPLIANCE_MARGIN];
+    const uint8_t cw_slope = table[CT_ADDR_CW_COMPLIANCE_SLOPE];
+    const uint8_t ccw_slope = table[CT_ADDR_CCW_COMPLIANCE_SLOPE];
+    drive = dxl_control_compliance_drive(error, cw_margin, ccw_margin, cw_slope, ccw_slope,
+                                         ct_get_u16(table, CT_ADDR_PUNCH), torque_limit);
+    const uint16_t error_magnitude = (uint16_t)(error < 0 ? -error : error);
+    const uint8_t margin = error > 0 ? cw_margin : ccw_margin;
+    const uint8_t shift = dxl_control_slope_shift(error > 0 ? cw_slope : ccw_slope);
+    demand_exceeds_limit = torque_limit != 0 && error_magnitude >= (uint16_t)(margin + (1u << shift));
+    const int16_t goal_error = (int16_t)(goal - position);
+    const uint16_t goal_error_magnitude = (uint16_t)(goal_error < 0 ? -goal_error : goal_error);
+    const uint8_t goal_margin = goal_error > 0 ? cw_margin : ccw_margin;
+    moving = c->setpoint_q16 != ((int32_t)goal << 16) ||
+             goal_error_magnitude > (uint16_t)(goal_margin + DXL_ARRIVAL_TOLERANCE_COUNTS);
+  }
+
+  const uint16_t speed_magnitude = (uint16_t)(speed_units < 0 ? -speed_units : speed_units);
+  if (demand_exceeds_limit && speed_magnitude < DXL_OVERLOAD_STALL_SPEED) {
+    if (c->overload_ms < DXL_OVERLOAD_WINDOW_MS) {
+      c->overload_ms++;
+    }
+  } else {
+    c->overload_ms = 0;
+  }
+
+  ct_set_u16(table, CT_ADDR_PRESENT_LOAD, signed_to_register(drive));
+  table[CT_ADDR_MOVING] = moving ? 1u : 0u;
+  return drive;
+}
