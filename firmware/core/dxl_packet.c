@@ -28,6 +28,7 @@ static void drop_front(dxl_finder_t *f, uint16_t count) {
     memmove(f->bytes, f->bytes + count, f->fill - count);
     f->fill = (uint16_t)(f->fill - count);
   }
+  f->before_gap = (count >= f->before_gap) ? 0 : (uint16_t)(f->before_gap - count);
   f->examined = 0;
   f->sum = 0;
 }
@@ -53,10 +54,7 @@ static void describe(const dxl_finder_t *f, dxl_packet_t *p) {
 
 void dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms) {
   if (finder->fill != 0 && (uint16_t)(now_ms - finder->last_byte_ms) > DXL_PACKET_GAP_TIMEOUT_MS) {
-    finder->fill = 0;
-    finder->examined = 0;
-    finder->release = 0;
-    finder->sum = 0;
+    finder->before_gap = finder->fill;
   }
 }
 
@@ -73,7 +71,14 @@ void dxl_finder_push(dxl_finder_t *finder, uint8_t byte, uint16_t now_ms) {
 dxl_find_result_t dxl_finder_next(dxl_finder_t *finder, dxl_packet_t *packet) {
   dxl_finder_t *f = finder;
   apply_release(f);
-  while (f->examined < f->fill) {
+  for (;;) {
+    if (f->before_gap != 0 && f->examined == f->before_gap) {
+      drop_front(f, 1); /* the candidate would run across a gap: not a packet */
+      continue;
+    }
+    if (f->examined >= f->fill) {
+      return DXL_FIND_NONE;
+    }
     const uint8_t b = f->bytes[f->examined];
     switch (f->examined) {
     case 0: /* first header byte */
@@ -119,7 +124,6 @@ dxl_find_result_t dxl_finder_next(dxl_finder_t *finder, dxl_packet_t *packet) {
     }
     f->examined++;
   }
-  return DXL_FIND_NONE;
 }
 
 bool dxl_finder_awaiting_checksum(const dxl_finder_t *finder, dxl_packet_t *packet, uint8_t *expected_checksum) {

@@ -8,8 +8,10 @@
  *
  * Resynchronisation: the finder keeps the bytes of the candidate packet. A LENGTH below 2 or
  * a wrong checksum drops only the first byte of the candidate and rescans the rest, so a valid
- * packet that starts inside garbage is still found. A gap of more than
- * DXL_PACKET_GAP_TIMEOUT_MS between two bytes discards the partial candidate.
+ * packet that starts inside garbage is still found. No packet spans a gap of more than
+ * DXL_PACKET_GAP_TIMEOUT_MS between two bytes: the bytes before such a gap are rescanned on
+ * their own (a complete packet hidden behind a garbage header is still found) and what is left
+ * of them is discarded.
  *
  * Use: dxl_finder_push() one byte, then call dxl_finder_next() until it returns
  * DXL_FIND_NONE (one byte can complete more than one packet after a rescan). A returned
@@ -47,6 +49,7 @@ typedef struct {
   uint16_t fill;        /* bytes held */
   uint16_t examined;    /* leading bytes of bytes[] accepted as the candidate so far */
   uint16_t release;     /* bytes to drop before the next scan (a returned result's) */
+  uint16_t before_gap;  /* leading bytes that came before a gap: no packet runs past them */
   uint8_t sum;          /* ID + LENGTH + body over the examined bytes */
   uint16_t last_byte_ms;
 } dxl_finder_t;
@@ -55,8 +58,9 @@ void dxl_finder_init(dxl_finder_t *finder);
 void dxl_finder_push(dxl_finder_t *finder, uint8_t byte, uint16_t now_ms);
 dxl_find_result_t dxl_finder_next(dxl_finder_t *finder, dxl_packet_t *packet);
 
-/* Discards a partial packet if no byte came for more than DXL_PACKET_GAP_TIMEOUT_MS. Call
- * it now and then while idle (the gap is also checked on every push). */
+/* Ends the bytes held so far if no byte came for more than DXL_PACKET_GAP_TIMEOUT_MS: call
+ * dxl_finder_next() afterwards until it returns DXL_FIND_NONE. Call it now and then while
+ * idle (the gap is also checked on every push). */
 void dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms);
 
 /* True when every byte of a packet but its checksum is in: *packet then describes it and

@@ -166,11 +166,11 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
     const uint8_t start = params[0];
     const uint8_t slice_data_len = params[1];
     const uint8_t slices_bytes = (uint8_t)(p->param_count - 2u);
-    const uint8_t slice_len = (uint8_t)(slice_data_len + 1u);
+    const uint16_t slice_len = (uint16_t)(slice_data_len + 1u); /* 1..256 */
     if (slice_data_len == 0 || slices_bytes == 0 || slices_bytes % slice_len != 0) {
       return 0; /* LENGTH does not fit: the whole packet is ignored */
     }
-    for (uint8_t ofs = 2; ofs < p->param_count; ofs = (uint8_t)(ofs + slice_len)) {
+    for (uint16_t ofs = 2; ofs < p->param_count; ofs = (uint16_t)(ofs + slice_len)) {
       if (params[ofs] != s->table[CT_ADDR_ID]) {
         continue;
       }
