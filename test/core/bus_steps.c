@@ -9,6 +9,7 @@
 
 #include <cmocka.h>
 
+#include "conformance_log.h"
 #include "dxl_protocol.h"
 
 uint8_t ref_checksum(const uint8_t *id_length_body, size_t count) {
@@ -84,7 +85,9 @@ void given_write(host_bus_t *bus, uint8_t id, uint8_t addr, const uint8_t *data,
   uint8_t params[STEPS_PACKET_MAX];
   params[0] = addr;
   memcpy(&params[1], data, count);
+  conformance_given_begin(); /* recorded as setup */
   when_master_sends(bus, id, DXL_INST_WRITE, params, count + 1u);
+  conformance_given_end();
 }
 
 dxl_servo_t *servo_of(host_bus_t *bus, uint8_t id) {

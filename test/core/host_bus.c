@@ -2,6 +2,7 @@
 
 #include <string.h>
 
+#include "conformance_log.h"
 #include "dxl_protocol.h"
 
 #define BITS_PER_BYTE 10u /* start, 8 data, stop */
@@ -56,6 +57,7 @@ void host_bus_init(host_bus_t *bus, const uint8_t *ids, size_t count, uint8_t ba
     dxl_image_build(hs->eeprom_image, hs->servo.table);
     power_up(bus, hs);
   }
+  conformance_on_bus_init(bus);
 }
 
 static void after_reply(host_bus_t *bus, host_bus_servo_t *hs, uint8_t after) {
@@ -163,6 +165,8 @@ static void deliver(host_bus_t *bus, size_t sender, uint8_t sender_baud, uint8_t
 }
 
 void host_bus_send_more(host_bus_t *bus, const uint8_t *bytes, size_t length) {
+  const size_t heard_from = bus->heard_len;
+  conformance_on_send_begin(bus);
   for (size_t i = 0; i < length; i++) {
     pending_reply_t pending[PENDING_MAX];
     size_t pending_count = 0;
@@ -170,6 +174,7 @@ void host_bus_send_more(host_bus_t *bus, const uint8_t *bytes, size_t length) {
     deliver(bus, SIZE_MAX, bus->master_baud, bytes[i], pending, &pending_count);
     transmit_replies(bus, pending, pending_count);
   }
+  conformance_on_send_end(bus, bytes, length, heard_from);
 }
 
 void host_bus_send(host_bus_t *bus, const uint8_t *bytes, size_t length) {
@@ -189,12 +194,16 @@ void host_bus_wait_ms(host_bus_t *bus, uint32_t ms) {
   }
 }
 
-void host_bus_set_master_baud(host_bus_t *bus, uint8_t baud_register) { bus->master_baud = baud_register; }
+void host_bus_set_master_baud(host_bus_t *bus, uint8_t baud_register) {
+  bus->master_baud = baud_register;
+  conformance_on_master_baud(bus, baud_register);
+}
 
 void host_bus_power_cycle(host_bus_t *bus) {
   for (size_t i = 0; i < bus->servo_count; i++) {
     power_up(bus, &bus->servos[i]);
   }
+  conformance_on_power_cycle(bus);
 }
 
 host_bus_servo_t *host_bus_find(host_bus_t *bus, uint8_t id) {

@@ -20,6 +20,8 @@
  *   plant here. The control layer is not in the core either, so the harness writes Present
  *   Temperature (the `temperature` directive) after every power-up and factory reset, and
  *   leaves the other Present* registers at 0.
+ * - When AX12_CONFORMANCE_LOG is set, init, sends, power cycles and master baud changes are
+ *   recorded for docs/conformance.md (conformance_log.h); otherwise the hooks do nothing.
  */
 #ifndef HOST_BUS_H
 #define HOST_BUS_H

@@ -11,6 +11,7 @@
 #include <cmocka.h>
 
 #include "bus_steps.h"
+#include "conformance_log.h"
 #include "conversation.h"
 
 #define MAX_FILES 256u
@@ -128,6 +129,83 @@ static void test_reader_reports_a_missing_file(void **state) {
 
 /* --- the suite ------------------------------------------------------------------------ */
 
+/* The comments of a conversation file, for the conformance log: the first block of full-line
+ * comments (after a `profile` line, if any) describes the file; every other comment becomes a
+ * note of a step: a full-line comment of the step after it, a trailing one of the step whose
+ * lines it is on. notes[i] belongs to conv->steps[i]. Only called when the log is on. */
+#define CONV_TEXT_MAX 8192u
+
+typedef struct {
+  char description[CONV_TEXT_MAX];
+  char *notes; /* step_count x CONV_TEXT_MAX */
+} conv_comments_t;
+
+static void append_text(char *to, const char *text, size_t text_len) {
+  const size_t used = strlen(to);
+  snprintf(to + used, CONV_TEXT_MAX - used, "%s%.*s", used == 0 ? "" : " ", (int)text_len, text);
+}
+
+static size_t step_of_line(const conv_t *conv, unsigned line, bool full_line) {
+  if (full_line) { /* the first step after it */
+    for (size_t i = 0; i < conv->step_count; i++) {
+      if (conv->steps[i].line > line) {
+        return i;
+      }
+    }
+    return conv->step_count;
+  }
+  size_t found = conv->step_count; /* the last step starting at or before it */
+  for (size_t i = 0; i < conv->step_count && conv->steps[i].line <= line; i++) {
+    found = i;
+  }
+  return found;
+}
+
+static void read_conv_comments(const conv_t *conv, conv_comments_t *out) {
+  out->description[0] = '\0';
+  out->notes = calloc(conv->step_count + 1u, CONV_TEXT_MAX);
+  FILE *f = fopen(conv->path, "r");
+  if (f == NULL || out->notes == NULL) {
+    if (f != NULL) {
+      fclose(f);
+    }
+    return;
+  }
+  char line[1024];
+  unsigned number = 0;
+  bool in_description = true;
+  while (fgets(line, sizeof line, f) != NULL) {
+    number++;
+    line[strcspn(line, "\r\n")] = '\0';
+    const char *text = line + strspn(line, " \t");
+    const char *hash = strchr(text, '#');
+    if (hash == NULL) {
+      if (text[0] != '\0' && strncmp(text, "profile", 7) != 0) {
+        in_description = false;
+      }
+      continue;
+    }
+    const bool full_line = hash == text;
+    const char *comment = hash + 1 + strspn(hash + 1, " \t");
+    if (full_line && in_description) {
+      append_text(out->description, comment, strlen(comment));
+      continue;
+    }
+    in_description = false;
+    const size_t step = step_of_line(conv, number, full_line);
+    if (step < conv->step_count) {
+      append_text(out->notes + step * CONV_TEXT_MAX, comment, strlen(comment));
+    }
+  }
+  fclose(f);
+}
+
+static int conversation_teardown(void **state) {
+  (void)state;
+  conformance_end();
+  return 0;
+}
+
 static void replay_conversation_file(void **state) {
   const char *path = *state;
   conv_t conv;
@@ -139,16 +217,30 @@ static void replay_conversation_file(void **state) {
     conv_free(&conv);
     skip();
   }
+  static conv_comments_t comments;
+  comments.notes = NULL;
+  if (conformance_enabled()) {
+    const char *slash = strrchr(path, '/');
+    read_conv_comments(&conv, &comments);
+    conformance_begin("conversations", slash != NULL ? slash + 1 : path, CONFORMANCE_CONVERSATION, NULL, NULL);
+    conformance_field_str("description", comments.description);
+    conformance_field_str("applies_to", conv.profile[0] != '\0' ? conv.profile : "both");
+  }
   static host_bus_t bus;
   conv_bus_init(&bus, &conv);
   char msg[4096];
   for (size_t i = 0; i < conv.step_count; i++) {
+    if (comments.notes != NULL && comments.notes[i * CONV_TEXT_MAX] != '\0') {
+      conformance_note(&comments.notes[i * CONV_TEXT_MAX]);
+    }
     if (!conv_replay_step(&bus, &conv, &conv.steps[i], msg, sizeof msg)) {
       conv_free(&conv);
+      free(comments.notes);
       fail_msg("%s", msg);
     }
   }
   conv_free(&conv);
+  free(comments.notes);
 }
 
 int main(void) {
@@ -169,7 +261,8 @@ int main(void) {
   }
   for (size_t i = 0; i < count; i++) {
     const char *slash = strrchr(paths[i], '/');
-    suite[i] = (struct CMUnitTest){slash != NULL ? slash + 1 : paths[i], replay_conversation_file, NULL, NULL, paths[i]};
+    suite[i] = (struct CMUnitTest){slash != NULL ? slash + 1 : paths[i], replay_conversation_file, NULL,
+                                   conversation_teardown, paths[i]};
   }
   failed += _cmocka_run_group_tests("conversations (" AX12_PROFILE_NAME ")", suite, count, NULL, NULL);
   for (size_t i = 0; i < count; i++) {

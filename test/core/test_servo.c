@@ -11,6 +11,7 @@
 #include <cmocka.h>
 
 #include "bus_steps.h"
+#include "conformance_log.h"
 #include "dxl_protocol.h"
 #include "policy_table.h"
 
@@ -84,10 +85,13 @@ typedef struct {
   bool runs_on_own_id;
   bool runs_on_broadcast;
   void (*effect)(uint8_t *table); /* what running it does to the table */
+  const char *effect_text;        /* the same in words, for the conformance reference */
 } matrix_row_t;
 
 static void given_led_write_registered(void) {
+  conformance_given_begin();
   when_master_sends(&bus, MATRIX_ID, DXL_INST_REG_WRITE, P(CT_ADDR_LED, 1));
+  conformance_given_end();
   assert_int_equal(the_servo()->table[CT_ADDR_REGISTERED_INSTRUCTION], 1);
 }
 
@@ -99,22 +103,27 @@ static void effect_led_on_and_registration_cleared(uint8_t *t) {
 }
 static void effect_factory_reset(uint8_t *t) {
   static host_bus_t fresh;
+  conformance_pause(); /* a reference, not part of the exchange */
   given_bus(&fresh, 1);
+  conformance_resume();
   memcpy(t, fresh.servos[0].servo.table, CT_SIZE);
 }
 
 static const matrix_row_t matrix_rows[] = {
-    {"PING", DXL_INST_PING, {0}, 0, NULL, 0, 0, {0}, 0, true, true, NULL},
-    {"READ of LED", DXL_INST_READ, {CT_ADDR_LED, 1}, 2, NULL, 1, 0, {0}, 1, true, true, NULL},
-    {"WRITE of LED 1", DXL_INST_WRITE, {CT_ADDR_LED, 1}, 2, NULL, 2, 0, {0}, 0, true, true, effect_led_on},
+    {"PING", DXL_INST_PING, {0}, 0, NULL, 0, 0, {0}, 0, true, true, NULL, NULL},
+    {"READ of LED", DXL_INST_READ, {CT_ADDR_LED, 1}, 2, NULL, 1, 0, {0}, 1, true, true, NULL, NULL},
+    {"WRITE of LED 1", DXL_INST_WRITE, {CT_ADDR_LED, 1}, 2, NULL, 2, 0, {0}, 0, true, true, effect_led_on,
+     "LED := 1"},
     {"REG_WRITE of LED 1", DXL_INST_REG_WRITE, {CT_ADDR_LED, 1}, 2, NULL, 2, 0, {0}, 0, true, true,
-     effect_registered},
+     effect_registered, "Registered Instruction := 1"},
     {"ACTION", DXL_INST_ACTION, {0}, 0, given_led_write_registered, 2, 0, {0}, 0, true, true,
-     effect_led_on_and_registration_cleared},
-    {"RESET", DXL_INST_RESET, {0}, 0, NULL, 2, 0, {0}, 0, true, true, effect_factory_reset},
+     effect_led_on_and_registration_cleared, "LED := 1, Registered Instruction := 0"},
+    {"RESET", DXL_INST_RESET, {0}, 0, NULL, 2, 0, {0}, 0, true, true, effect_factory_reset,
+     "factory defaults, ID 1"},
     {"SYNC_WRITE of LED 1", DXL_INST_SYNC_WRITE, {CT_ADDR_LED, 1, MATRIX_ID, 1}, 4, NULL, 2, DXL_ERR_INSTRUCTION,
-     {0}, 0, false, true, effect_led_on},
-    {"an unknown instruction", UNKNOWN_INSTRUCTION, {0}, 0, NULL, 2, DXL_ERR_INSTRUCTION, {0}, 0, false, false, NULL},
+     {0}, 0, false, true, effect_led_on, "LED := 1"},
+    {"an unknown instruction", UNKNOWN_INSTRUCTION, {0}, 0, NULL, 2, DXL_ERR_INSTRUCTION, {0}, 0, false, false, NULL,
+     NULL},
 };
 #define MATRIX_ROWS (sizeof matrix_rows / sizeof matrix_rows[0])
 #define MATRIX_LEVELS 3u
@@ -158,6 +167,18 @@ static void test_matrix_case(void **state) {
   default:
     break;
   }
+  conformance_fact_str("instruction", row->name);
+  conformance_fact_str("addressing", c->to == TO_OWN_ID ? "own ID" : c->to == TO_OTHER_ID ? "other ID" : "broadcast");
+  conformance_fact_int("status_return_level", c->level);
+  conformance_fact_bool("answered", answered);
+  if (answered) {
+    conformance_fact_int("error", row->own_error);
+  }
+  conformance_fact_bool("has_effect", row->effect != NULL);
+  conformance_fact_bool("runs", runs);
+  if (runs && row->effect_text != NULL) {
+    conformance_fact_str("effect", row->effect_text);
+  }
   if (answered) {
     then_status_is(&bus, MATRIX_ID, row->own_error, row->reply_params, row->reply_param_count);
   } else {
@@ -167,6 +188,37 @@ static void test_matrix_case(void **state) {
     row->effect(remembered);
   }
   then_the_table_is_as_expected();
+}
+
+/* The rule a matrix case checks (POLICY.md). */
+static void matrix_case_begin(const matrix_case_t *c) {
+  const char *section = "Replies";
+  const char *rule = "Status Return Level: 0 answers PING only; 1 answers PING and READ; 2 answers everything.";
+  if (c->to == TO_OTHER_ID) {
+    section = "Framing and bus";
+    rule = "A packet for another ID is parsed to its end by its LENGTH and ignored: no action, no reply.";
+  } else if (c->to == TO_BROADCAST) {
+    rule = "Broadcast (0xFE): no reply to any instruction except PING, which the 2006 manual says is always "
+           "answered [...]. Profile `ax12a` does not answer broadcast PING.";
+  } else if (c->row->instruction == DXL_INST_SYNC_WRITE) {
+    section = "Instructions and their errors";
+    rule = "SYNC_WRITE: only with ID 0xFE (to a unicast ID it is an Instruction Error).";
+  } else if (c->row->instruction == UNKNOWN_INSTRUCTION) {
+    section = "Instructions and their errors";
+    rule = "Unknown instruction, or ACTION with nothing registered: Instruction Error, nothing changes.";
+  }
+  conformance_begin("reply matrix", c->name, CONFORMANCE_POLICY, section, rule);
+}
+
+static int matrix_case_setup(void **state) {
+  matrix_case_begin(*state);
+  return 0;
+}
+
+static int case_teardown(void **state) {
+  (void)state;
+  conformance_end();
+  return 0;
 }
 
 static size_t build_matrix(struct CMUnitTest *tests) {
@@ -180,7 +232,7 @@ static size_t build_matrix(struct CMUnitTest *tests) {
         c->level = level;
         snprintf(c->name, sizeof c->name, "%s to %s at Status Return Level %u", c->row->name, addressing_names[to],
                  level);
-        tests[n] = (struct CMUnitTest){c->name, test_matrix_case, NULL, NULL, c};
+        tests[n] = (struct CMUnitTest){c->name, test_matrix_case, matrix_case_setup, case_teardown, c};
         n++;
       }
     }
@@ -338,11 +390,30 @@ typedef struct {
   const pol_item_t *item;
   uint16_t value;
   bool in_range;
+  const char *bound; /* "min-1", "min", "max", "max+1" */
   char name[128];
 } range_case_t;
 
 #define RANGE_CASES_MAX (4u * POL_ITEM_COUNT)
 static range_case_t range_cases[RANGE_CASES_MAX];
+
+static int range_case_setup(void **state) {
+  const range_case_t *c = *state;
+  char rule[192];
+  snprintf(rule, sizeof rule,
+           "%s: write range %u..%u. Out-of-range value, read-only or reserved address, or a window past 49: Range "
+           "Error and nothing is written.",
+           c->item->name, c->item->min, c->item->max);
+  conformance_begin("write ranges", c->name, CONFORMANCE_POLICY, "Control table; Instructions and their errors", rule);
+  conformance_fact_int("address", c->item->addr);
+  conformance_fact_str("item", c->item->name);
+  conformance_fact_int("bytes", c->item->size_bytes);
+  conformance_fact_int("value", c->value);
+  conformance_fact_str("bound", c->bound);
+  conformance_fact_bool("accepted", c->in_range);
+  conformance_fact_int("error", c->in_range ? angle_limit_after(c->item, c->value) : DXL_ERR_RANGE);
+  return 0;
+}
 
 static void test_range_case(void **state) {
   const range_case_t *c = *state;
@@ -369,6 +440,7 @@ static size_t add_range_case(size_t n, const pol_item_t *item, uint16_t value, b
   c->item = item;
   c->value = value;
   c->in_range = in_range;
+  c->bound = what;
   snprintf(c->name, sizeof c->name, "WRITE of %s = %u (%s) is %s", item->name, value, what,
            in_range ? "accepted" : "a Range Error");
   return n + 1;
@@ -392,7 +464,8 @@ static size_t build_range_cases(struct CMUnitTest *tests) {
     }
   }
   for (size_t i = 0; i < n; i++) {
-    tests[i] = (struct CMUnitTest){range_cases[i].name, test_range_case, NULL, NULL, &range_cases[i]};
+    tests[i] = (struct CMUnitTest){range_cases[i].name, test_range_case, range_case_setup, case_teardown,
+                                   &range_cases[i]};
   }
   return n;
 }
@@ -881,7 +954,9 @@ static void test_registered_instruction_is_read_only_in_ax12a(void **state) {
 static void test_reset_restores_factory_defaults_persisted_and_replies_with_the_old_id(void **state) {
   (void)state;
   static host_bus_t fresh;
+  conformance_pause(); /* a reference, not part of the exchange */
   given_bus(&fresh, 1);
+  conformance_resume();
   given_bus(&bus, 9);
   given_write(&bus, 9, CT_ADDR_RETURN_DELAY_TIME, P(3));
   given_write(&bus, 9, CT_ADDR_ALARM_LED, P(0x7F));
@@ -903,7 +978,25 @@ static void test_reset_restores_factory_defaults_persisted_and_replies_with_the_
  * Events and conditions in the error byte
  * ====================================================================================== */
 
-static void given_held_condition(uint8_t condition) { the_servo()->held_conditions = condition; }
+static void given_held_condition(uint8_t condition) {
+  the_servo()->held_conditions = condition;
+  if (conformance_enabled()) {
+    char names[64] = "none";
+    size_t used = 0;
+    const struct {
+      uint8_t bit;
+      const char *name;
+    } bits[] = {{DXL_ERR_VOLTAGE, "input voltage"}, {DXL_ERR_OVERHEATING, "overheating"}, {DXL_ERR_OVERLOAD, "overload"}};
+    for (size_t i = 0; i < sizeof bits / sizeof bits[0]; i++) {
+      if (condition & bits[i].bit) {
+        used += (size_t)snprintf(names + used, sizeof names - used, "%s%s", used == 0 ? "" : ", ", bits[i].name);
+      }
+    }
+    char text[160];
+    snprintf(text, sizeof text, "The test sets the servo's held conditions directly to %02X (%s).", condition, names);
+    conformance_event(text);
+  }
+}
 
 static void test_held_conditions_are_in_every_status_packet(void **state) {
   (void)state;
@@ -918,7 +1011,7 @@ static void test_held_conditions_are_in_every_status_packet(void **state) {
     then_status_is(&bus, ID, conditions[i], P(0));
     when_master_sends(&bus, ID, DXL_INST_WRITE, P(CT_ADDR_LED, 1));
     then_status_is(&bus, ID, conditions[i], NO_PARAMS);
-    the_servo()->held_conditions = 0;
+    given_held_condition(0);
     when_master_sends(&bus, ID, DXL_INST_PING, NO_PARAMS);
     then_status_is(&bus, ID, 0, NO_PARAMS);
   }
@@ -987,6 +1080,26 @@ static void handle(dxl_servo_t *servo, uint8_t id, uint8_t instruction, const ui
                    dxl_response_t *response) {
   const dxl_packet_t packet = {id, instruction, (uint8_t)count, params, 0};
   dxl_servo_handle(servo, &packet, response);
+  if (conformance_enabled()) {
+    uint8_t bytes[STEPS_PACKET_MAX];
+    const size_t length = build_packet(bytes, id, instruction, params, count);
+    char after[96] = "nothing";
+    size_t used = 0;
+    const struct {
+      uint8_t flag;
+      const char *name;
+    } flags[] = {{DXL_AFTER_FACTORY_RESET, "factory reset"},
+                 {DXL_AFTER_APPLY_BAUD, "apply the baud"},
+                 {DXL_AFTER_PERSIST, "persist the EEPROM area"}};
+    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++) {
+      if (response->after & flags[i].flag) {
+        used += (size_t)snprintf(after + used, sizeof after - used, "%s%s", used == 0 ? "" : ", ", flags[i].name);
+      }
+    }
+    char note[192];
+    snprintf(note, sizeof note, "Reply delay %u µs; after the reply: %s.", response->delay_us, after);
+    conformance_on_api_exchange(bytes, length, response->bytes, response->length, note);
+  }
 }
 
 static void test_the_reply_waits_2us_per_unit_of_return_delay_time(void **state) {
@@ -1038,69 +1151,182 @@ static void test_a_baud_change_applies_after_the_reply(void **state) {
 
 /* ====================================================================================== */
 
-#define FIXED_TESTS_MAX 64u
+/* Every error-path test with the rule it checks, for the conformance reference
+ * (docs/conformance.md): X(test function, source, section, rule). The same list builds the cmocka
+ * array, and its per-test setup names the test and its rule in the conformance log. */
+#define POLICY CONFORMANCE_POLICY
+#define PROTOCOL CONFORMANCE_PROTOCOL
+#define RULE_BAD_CHECKSUM                                                                                             \
+  "A packet for this ID with a bad checksum: not executed; answered with the Checksum Error bit when Status "        \
+  "Return Level is 2."
+#define RULE_LENGTH "LENGTH that does not fit the instruction (e.g. READ without its two parameters): Instruction Error."
+#define RULE_UNKNOWN "Unknown instruction, or ACTION with nothing registered: Instruction Error, nothing changes."
+#define RULE_READ_RANGE "READ: length 0, or a window reaching past address 49: Range Error, no parameters returned."
+#define RULE_WRITE_RANGE                                                                                              \
+  "Out-of-range value, read-only or reserved address, or a window past 49: Range Error and nothing is written."
+#define RULE_GOAL_OUTSIDE                                                                                             \
+  "Goal Position outside CW..CCW Angle Limit (including any Goal Position in wheel mode): the value is stored, "     \
+  "motion stops at the nearer limit, and the Angle Limit bit is a condition for as long as the stored goal lies "    \
+  "outside."
+#define RULE_SYNC_SLICES "Each servo applies its own slice with the WRITE rules, silently."
+#define RULE_SYNC_LENGTH "Layout: start address, data length L, then (ID, L bytes) per servo; LENGTH = (L + 1) × N + 4, otherwise the whole packet is ignored."
+#define RULE_REG_WRITE                                                                                                \
+  "REG_WRITE: validated like WRITE at once; one slot, a new REG_WRITE replaces the old; sets Registered "            \
+  "Instruction to 1. ACTION applies it and clears it."
+#define RULE_EVENTS "Events (range, checksum, instruction) are set only in the reply to the offending packet."
+#define RULE_CONDITIONS                                                                                               \
+  "Conditions (voltage, angle limit, overheating, overload) are set in every status packet for as long as the "     \
+  "condition holds."
+#define RULE_AFTER_REPLY                                                                                              \
+  "ID change, baud change and RESET: the reply goes out with the old ID at the old baud; the change applies after "  \
+  "the reply's last byte has left."
+
+#if DXL_PROFILE == DXL_PROFILE_AX12
+#define LOCK_ERROR_PATHS(X)                                                                                           \
+  X(test_locked_ax12_accepts_writes_to_24_to_35, POLICY, "Lock", "Profile `ax12`: once 1, only addresses 24..35 can be written.") \
+  X(test_locked_ax12_refuses_every_other_address_lock_and_punch_included, POLICY, "Lock",                           \
+    "Profile `ax12`: [...] every other write, Lock itself and Punch included, is a Range Error.")                    \
+  X(test_locked_ax12_refuses_reset_with_an_instruction_error, POLICY, "Lock",                                        \
+    "Profile `ax12`: [...] RESET is refused with an Instruction Error.")                                             \
+  X(test_locked_ax12_action_of_a_write_registered_before_the_lock_is_refused, PROTOCOL, "Decisions where POLICY.md is silent", \
+    "ACTION re-checks the registered write against the table as it is then (Lock or angle limits may have changed "  \
+    "since the REG_WRITE): if it no longer fits, the reply has the Range Error bit and nothing changes; the write "   \
+    "stays registered.")
+#define REGISTERED_INSTRUCTION_ERROR_PATHS(X)                                                                         \
+  X(test_writing_0_to_registered_instruction_discards_the_registered_write, POLICY, "Instructions and their errors", \
+    "Writing 0 to address 44 discards the registered write.")                                                        \
+  X(test_writing_1_to_registered_instruction_keeps_the_registered_write, PROTOCOL, "Decisions where POLICY.md is silent", \
+    "Writing 1 to Registered Instruction (address 44, profile `ax12`) changes nothing: the register shows whether a " \
+    "write is registered. Writing 0 discards it.")
+#else
+#define LOCK_ERROR_PATHS(X)                                                                                           \
+  X(test_locked_ax12a_refuses_the_eeprom_area_3_to_23, POLICY, "Lock",                                               \
+    "Profile `ax12a`: once 1, addresses 3..23 are refused; RAM stays writable.")                                     \
+  X(test_locked_ax12a_keeps_the_ram_area_writable, POLICY, "Lock",                                                   \
+    "Profile `ax12a`: once 1, addresses 3..23 are refused; RAM stays writable.")
+#define REGISTERED_INSTRUCTION_ERROR_PATHS(X)                                                                         \
+  X(test_registered_instruction_is_read_only_in_ax12a, POLICY, "Control table",                                      \
+    "Registered Instruction (44): RW in `ax12`, R in `ax12a`. Writing a read-only address: Range Error and nothing "  \
+    "is written.")
+#endif
+
+#define ERROR_PATHS(X)                                                                                                \
+  X(test_a_bad_checksum_is_answered_with_the_checksum_error_at_level_2_and_not_executed, POLICY,                    \
+    "Instructions and their errors", RULE_BAD_CHECKSUM)                                                              \
+  X(test_a_bad_checksum_is_silent_at_levels_0_and_1, POLICY, "Instructions and their errors", RULE_BAD_CHECKSUM)    \
+  X(test_a_bad_checksum_for_another_id_or_broadcast_is_silent, PROTOCOL, "Decisions where POLICY.md is silent",     \
+    "An instruction packet with a bad checksum for this ID gets the Checksum Error reply at Status Return Level 2; " \
+    "a bad-checksum packet for the broadcast ID gets no reply.")                                                     \
+  X(test_a_reset_with_a_bad_checksum_does_not_reset, POLICY, "Instructions and their errors", RULE_BAD_CHECKSUM)    \
+  X(test_unknown_instructions_are_instruction_errors, POLICY, "Instructions and their errors",                       \
+    RULE_UNKNOWN " Not AX-12 instructions here: BULK_READ (0x92), SYNC_READ: Instruction Error.")                    \
+  X(test_read_with_one_or_three_parameters_is_an_instruction_error, POLICY, "Instructions and their errors",        \
+    RULE_LENGTH)                                                                                                     \
+  X(test_ping_with_parameters_is_an_instruction_error, PROTOCOL, "Decisions where POLICY.md is silent",             \
+    "PING always answers (Status Return Level 0 included), also when its LENGTH is wrong: then with the "            \
+    "Instruction Error bit.")                                                                                        \
+  X(test_action_with_parameters_is_an_instruction_error_and_runs_nothing, POLICY, "Instructions and their errors", \
+    RULE_LENGTH)                                                                                                     \
+  X(test_reset_with_parameters_is_an_instruction_error_and_resets_nothing, POLICY, "Instructions and their errors", \
+    RULE_LENGTH)                                                                                                     \
+  X(test_write_or_reg_write_with_only_an_address_is_an_instruction_error, POLICY, "Instructions and their errors", \
+    RULE_LENGTH)                                                                                                     \
+  X(test_action_with_nothing_registered_is_an_instruction_error, POLICY, "Instructions and their errors",          \
+    RULE_UNKNOWN)                                                                                                    \
+  X(test_moving_speed_up_to_2047_is_accepted_in_wheel_mode_only, POLICY, "Control table",                           \
+    "Moving Speed (32): write range 0..1023 (wheel mode 0..2047).")                                                  \
+  X(test_read_only_and_reserved_addresses_refuse_writes, POLICY, "Instructions and their errors", RULE_WRITE_RANGE) \
+  X(test_a_window_with_one_bad_item_writes_nothing, POLICY, "Instructions and their errors",                        \
+    "WRITE / REG_WRITE: the whole packet is checked first and applied only if all of it is valid (atomic).")         \
+  X(test_read_of_length_0_is_a_range_error_without_parameters, POLICY, "Instructions and their errors",             \
+    RULE_READ_RANGE)                                                                                                 \
+  X(test_read_windows_past_address_49_are_range_errors_without_parameters, POLICY, "Instructions and their errors", \
+    RULE_READ_RANGE)                                                                                                 \
+  X(test_read_of_the_whole_table_and_of_its_last_byte, POLICY, "Instructions and their errors", RULE_READ_RANGE)    \
+  X(test_write_windows_past_address_49_are_range_errors, POLICY, "Instructions and their errors", RULE_WRITE_RANGE) \
+  X(test_one_byte_of_a_16_bit_item_is_checked_as_the_resulting_value, POLICY, "Instructions and their errors",      \
+    "One byte of a 16-bit item may be written alone; the range check applies to the 16-bit value that results.")    \
+  LOCK_ERROR_PATHS(X)                                                                                                \
+  X(test_a_power_cycle_clears_lock, POLICY, "Lock", "Only a power cycle clears Lock.")                              \
+  X(test_lock_can_only_be_written_1, POLICY, "Control table", "Lock (47): write range 1..1.")                        \
+  X(test_a_goal_outside_the_angle_limits_is_stored_and_flagged_while_outside, POLICY,                               \
+    "Instructions and their errors", RULE_GOAL_OUTSIDE)                                                              \
+  X(test_limits_moved_past_the_goal_raise_the_angle_limit_condition, POLICY, "Instructions and their errors",       \
+    RULE_GOAL_OUTSIDE)                                                                                               \
+  X(test_in_wheel_mode_any_goal_written_raises_the_angle_limit_condition, PROTOCOL,                                 \
+    "Decisions where POLICY.md is silent",                                                                           \
+    "In wheel mode every Goal Position written counts as outside the angle limits: the Angle Limit condition holds " \
+    "from that write until the servo leaves wheel mode. Entering wheel mode with an old goal does not raise it.")    \
+  X(test_sync_write_writes_each_servo_its_own_slice_silently, POLICY, "Instructions and their errors",              \
+    RULE_SYNC_SLICES)                                                                                                \
+  X(test_sync_write_with_a_length_that_does_not_fit_is_ignored_whole, POLICY, "Instructions and their errors",      \
+    RULE_SYNC_LENGTH " (docs/protocol.md: a data length L of 0 is ignored whole too.)")                             \
+  X(test_sync_write_with_data_length_255_is_ignored_whole, POLICY, "Instructions and their errors", RULE_SYNC_LENGTH) \
+  X(test_sync_write_to_a_unicast_id_is_an_instruction_error, POLICY, "Instructions and their errors",               \
+    "SYNC_WRITE: only with ID 0xFE (to a unicast ID it is an Instruction Error).")                                   \
+  X(test_sync_write_slice_out_of_range_is_dropped_by_that_servo_only, POLICY, "Instructions and their errors",      \
+    RULE_SYNC_SLICES)                                                                                                \
+  X(test_reg_write_sets_registered_instruction_and_action_applies_and_clears_it, POLICY,                            \
+    "Instructions and their errors", RULE_REG_WRITE)                                                                 \
+  X(test_a_new_reg_write_replaces_the_registered_one, POLICY, "Instructions and their errors", RULE_REG_WRITE)      \
+  X(test_a_refused_reg_write_keeps_the_registered_one, POLICY, "Instructions and their errors", RULE_REG_WRITE)     \
+  X(test_a_reg_write_of_the_longest_window_is_held_whole, POLICY, "Instructions and their errors", RULE_REG_WRITE)  \
+  REGISTERED_INSTRUCTION_ERROR_PATHS(X)                                                                              \
+  X(test_reset_restores_factory_defaults_persisted_and_replies_with_the_old_id, POLICY,                             \
+    "Instructions and their errors; Replies",                                                                        \
+    "RESET: factory defaults for the whole table (ID becomes 1, baud 1 Mbps), persisted. " RULE_AFTER_REPLY)         \
+  X(test_held_conditions_are_in_every_status_packet, POLICY, "Error byte", RULE_CONDITIONS)                          \
+  X(test_a_range_error_is_only_in_the_reply_to_the_offending_packet, POLICY, "Error byte", RULE_EVENTS)             \
+  X(test_a_checksum_error_is_only_in_the_reply_to_the_offending_packet, POLICY, "Error byte", RULE_EVENTS)          \
+  X(test_an_instruction_error_is_only_in_the_reply_to_the_offending_packet, POLICY, "Error byte", RULE_EVENTS)      \
+  X(test_events_are_handed_to_the_alarm_layer_once, PROTOCOL, "Control tick",                                       \
+    "Alarm LED blinks at 2 Hz while an enabled alarm holds (events count for one tick).")                            \
+  X(test_a_factory_reset_keeps_the_held_conditions, POLICY, "Error byte", RULE_CONDITIONS)                           \
+  X(test_the_reply_waits_2us_per_unit_of_return_delay_time, POLICY, "Replies",                                      \
+    "The reply starts 2 µs × Return Delay Time after the stop bit of the instruction's last byte.")                  \
+  X(test_eeprom_baud_and_reset_changes_are_signalled_for_after_the_reply, POLICY, "Replies", RULE_AFTER_REPLY)      \
+  X(test_a_baud_change_applies_after_the_reply, POLICY, "Replies", RULE_AFTER_REPLY)
+
+typedef struct {
+  const char *function;
+  void (*test)(void **state);
+  const char *source;
+  const char *section;
+  const char *rule;
+} error_path_t;
+
+#define ERROR_PATH_ENTRY(fn, source, section, rule) {#fn, fn, source, section, rule},
+static const error_path_t error_path_list[] = {ERROR_PATHS(ERROR_PATH_ENTRY)};
+#define ERROR_PATH_COUNT (sizeof error_path_list / sizeof error_path_list[0])
+
+/* "test_a_bad_checksum_is_silent" -> "A bad checksum is silent" */
+static void sentence_of(const char *function, char *out, size_t out_len) {
+  const char *from = strncmp(function, "test_", 5) == 0 ? function + 5 : function;
+  size_t n = 0;
+  for (; from[n] != '\0' && n + 1 < out_len; n++) {
+    out[n] = from[n] == '_' ? ' ' : from[n];
+  }
+  out[n] = '\0';
+  if (n > 0 && out[0] >= 'a' && out[0] <= 'z') {
+    out[0] = (char)(out[0] - 'a' + 'A');
+  }
+}
+
+static int error_path_setup(void **state) {
+  const error_path_t *e = *state;
+  char name[160];
+  sentence_of(e->function, name, sizeof name);
+  conformance_begin("error paths", name, e->source, e->section, e->rule);
+  conformance_field_str("test", e->function);
+  return 0;
+}
 
 int main(void) {
-  static const struct CMUnitTest error_paths[] = {
-      cmocka_unit_test(test_a_bad_checksum_is_answered_with_the_checksum_error_at_level_2_and_not_executed),
-      cmocka_unit_test(test_a_bad_checksum_is_silent_at_levels_0_and_1),
-      cmocka_unit_test(test_a_bad_checksum_for_another_id_or_broadcast_is_silent),
-      cmocka_unit_test(test_a_reset_with_a_bad_checksum_does_not_reset),
-      cmocka_unit_test(test_unknown_instructions_are_instruction_errors),
-      cmocka_unit_test(test_read_with_one_or_three_parameters_is_an_instruction_error),
-      cmocka_unit_test(test_ping_with_parameters_is_an_instruction_error),
-      cmocka_unit_test(test_action_with_parameters_is_an_instruction_error_and_runs_nothing),
-      cmocka_unit_test(test_reset_with_parameters_is_an_instruction_error_and_resets_nothing),
-      cmocka_unit_test(test_write_or_reg_write_with_only_an_address_is_an_instruction_error),
-      cmocka_unit_test(test_action_with_nothing_registered_is_an_instruction_error),
-      cmocka_unit_test(test_moving_speed_up_to_2047_is_accepted_in_wheel_mode_only),
-      cmocka_unit_test(test_read_only_and_reserved_addresses_refuse_writes),
-      cmocka_unit_test(test_a_window_with_one_bad_item_writes_nothing),
-      cmocka_unit_test(test_read_of_length_0_is_a_range_error_without_parameters),
-      cmocka_unit_test(test_read_windows_past_address_49_are_range_errors_without_parameters),
-      cmocka_unit_test(test_read_of_the_whole_table_and_of_its_last_byte),
-      cmocka_unit_test(test_write_windows_past_address_49_are_range_errors),
-      cmocka_unit_test(test_one_byte_of_a_16_bit_item_is_checked_as_the_resulting_value),
-#if DXL_PROFILE == DXL_PROFILE_AX12
-      cmocka_unit_test(test_locked_ax12_accepts_writes_to_24_to_35),
-      cmocka_unit_test(test_locked_ax12_refuses_every_other_address_lock_and_punch_included),
-      cmocka_unit_test(test_locked_ax12_refuses_reset_with_an_instruction_error),
-      cmocka_unit_test(test_locked_ax12_action_of_a_write_registered_before_the_lock_is_refused),
-#else
-      cmocka_unit_test(test_locked_ax12a_refuses_the_eeprom_area_3_to_23),
-      cmocka_unit_test(test_locked_ax12a_keeps_the_ram_area_writable),
-#endif
-      cmocka_unit_test(test_a_power_cycle_clears_lock),
-      cmocka_unit_test(test_lock_can_only_be_written_1),
-      cmocka_unit_test(test_a_goal_outside_the_angle_limits_is_stored_and_flagged_while_outside),
-      cmocka_unit_test(test_limits_moved_past_the_goal_raise_the_angle_limit_condition),
-      cmocka_unit_test(test_in_wheel_mode_any_goal_written_raises_the_angle_limit_condition),
-      cmocka_unit_test(test_sync_write_writes_each_servo_its_own_slice_silently),
-      cmocka_unit_test(test_sync_write_with_a_length_that_does_not_fit_is_ignored_whole),
-      cmocka_unit_test(test_sync_write_with_data_length_255_is_ignored_whole),
-      cmocka_unit_test(test_sync_write_to_a_unicast_id_is_an_instruction_error),
-      cmocka_unit_test(test_sync_write_slice_out_of_range_is_dropped_by_that_servo_only),
-      cmocka_unit_test(test_reg_write_sets_registered_instruction_and_action_applies_and_clears_it),
-      cmocka_unit_test(test_a_new_reg_write_replaces_the_registered_one),
-      cmocka_unit_test(test_a_refused_reg_write_keeps_the_registered_one),
-      cmocka_unit_test(test_a_reg_write_of_the_longest_window_is_held_whole),
-#if DXL_PROFILE == DXL_PROFILE_AX12
-      cmocka_unit_test(test_writing_0_to_registered_instruction_discards_the_registered_write),
-      cmocka_unit_test(test_writing_1_to_registered_instruction_keeps_the_registered_write),
-#else
-      cmocka_unit_test(test_registered_instruction_is_read_only_in_ax12a),
-#endif
-      cmocka_unit_test(test_reset_restores_factory_defaults_persisted_and_replies_with_the_old_id),
-      cmocka_unit_test(test_held_conditions_are_in_every_status_packet),
-      cmocka_unit_test(test_a_range_error_is_only_in_the_reply_to_the_offending_packet),
-      cmocka_unit_test(test_a_checksum_error_is_only_in_the_reply_to_the_offending_packet),
-      cmocka_unit_test(test_an_instruction_error_is_only_in_the_reply_to_the_offending_packet),
-      cmocka_unit_test(test_events_are_handed_to_the_alarm_layer_once),
-      cmocka_unit_test(test_a_factory_reset_keeps_the_held_conditions),
-      cmocka_unit_test(test_the_reply_waits_2us_per_unit_of_return_delay_time),
-      cmocka_unit_test(test_eeprom_baud_and_reset_changes_are_signalled_for_after_the_reply),
-      cmocka_unit_test(test_a_baud_change_applies_after_the_reply),
-  };
+  static struct CMUnitTest error_paths[ERROR_PATH_COUNT];
+  for (size_t i = 0; i < ERROR_PATH_COUNT; i++) {
+    error_paths[i] = (struct CMUnitTest){error_path_list[i].function, error_path_list[i].test, error_path_setup,
+                                         case_teardown, (void *)&error_path_list[i]};
+  }
   static struct CMUnitTest matrix[MATRIX_CASES];
   static struct CMUnitTest ranges[RANGE_CASES_MAX];
   const size_t matrix_count = build_matrix(matrix);
@@ -1108,6 +1334,6 @@ int main(void) {
   int failed = 0;
   failed += _cmocka_run_group_tests("reply matrix (" AX12_PROFILE_NAME ")", matrix, matrix_count, NULL, NULL);
   failed += _cmocka_run_group_tests("write ranges (" AX12_PROFILE_NAME ")", ranges, range_count, NULL, NULL);
-  failed += cmocka_run_group_tests_name("error paths (" AX12_PROFILE_NAME ")", error_paths, NULL, NULL);
+  failed += _cmocka_run_group_tests("error paths (" AX12_PROFILE_NAME ")", error_paths, ERROR_PATH_COUNT, NULL, NULL);
   return failed;
 }
