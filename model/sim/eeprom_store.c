@@ -1,0 +1,152 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+#include "eeprom_store.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <libgen.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "dxl_image.h"
+
+bool eeprom_profile_parse(const char *name, eeprom_profile_t *profile) {
+  if (strcmp(name, "ax12") == 0) {
+    *profile = EEPROM_PROFILE_AX12;
+    return true;
+  }
+  if (strcmp(name, "ax12a") == 0) {
+    *profile = EEPROM_PROFILE_AX12A;
+    return true;
+  }
+  return false;
+}
+
+const char *eeprom_profile_name(eeprom_profile_t profile) {
+  return profile == EEPROM_PROFILE_AX12A ? "ax12a" : "ax12";
+}
+
+/* The factory EEPROM area of either profile, from the one control-table definition
+ * (ct_items.h; the same values ct_load_factory_eeprom() gives a core built for that
+ * profile). The host links no profile-specific core, so both columns are read here. */
+static void factory_eeprom_area(uint8_t area[CT_EEPROM_SIZE], eeprom_profile_t profile) {
+  memset(area, 0, CT_EEPROM_SIZE);
+#define SIM_X_FACTORY(name, addr, size, acc, acc_a, min, max, def, def_a)                 \
+  if ((addr) < CT_EEPROM_SIZE) {                                                      \
+    const unsigned value = profile == EEPROM_PROFILE_AX12A ? (unsigned)(def_a) : (unsigned)(def); \
+    area[(addr)] = (uint8_t)(value & 0xFFu);                                          \
+    if ((size) == 2) {                                                                \
+      area[(addr) + 1] = (uint8_t)(value >> 8);                                       \
+    }                                                                                 \
+  }
+  CT_ITEMS(SIM_X_FACTORY)
+#undef SIM_X_FACTORY
+}
+
+void eeprom_store_seed(uint8_t *eeprom, size_t size, eeprom_profile_t profile, uint8_t id, uint8_t baud_reg) {
+  memset(eeprom, 0xFF, size);
+  uint8_t area[CT_EEPROM_SIZE];
+  factory_eeprom_area(area, profile);
+  area[CT_ADDR_ID] = id;
+  area[CT_ADDR_BAUD_RATE] = baud_reg;
+  uint8_t image[DXL_IMAGE_BYTES];
+  dxl_image_build(image, area);
+  memcpy(eeprom, image, size < DXL_IMAGE_BYTES ? size : DXL_IMAGE_BYTES);
+}
+
+bool eeprom_store_image_fields(const uint8_t *eeprom, size_t size, uint8_t *id, uint8_t *baud_reg) {
+  if (size < DXL_IMAGE_BYTES || !dxl_image_is_valid(eeprom)) {
+    return false;
+  }
+  if (id) {
+    *id = eeprom[DXL_IMAGE_OFS_TABLE + CT_ADDR_ID];
+  }
+  if (baud_reg) {
+    *baud_reg = eeprom[DXL_IMAGE_OFS_TABLE + CT_ADDR_BAUD_RATE];
+  }
+  return true;
+}
+
+int eeprom_store_load(const char *path, uint8_t *eeprom, size_t size, char *err, size_t err_len) {
+  memset(eeprom, 0xFF, size);
+  const int fd = open(path, O_RDONLY | O_CLOEXEC);
+  if (fd < 0) {
+    if (errno == ENOENT) {
+      return 0;
+    }
+    snprintf(err, err_len, "cannot read %s: %s", path, strerror(errno));
+    return -1;
+  }
+  size_t got = 0;
+  while (got < size) {
+    const ssize_t n = read(fd, eeprom + got, size - got);
+    if (n < 0 && errno == EINTR) {
+      continue;
+    }
+    if (n < 0) {
+      snprintf(err, err_len, "cannot read %s: %s", path, strerror(errno));
+      close(fd);
+      return -1;
+    }
+    if (n == 0) {
+      break;
+    }
+    got += (size_t)n;
+  }
+  close(fd);
+  return 1;
+}
+
+static int write_all(int fd, const uint8_t *data, size_t size) {
+  size_t done = 0;
+  while (done < size) {
+    const ssize_t n = write(fd, data + done, size - done);
+    if (n < 0 && errno == EINTR) {
+      continue;
+    }
+    if (n <= 0) {
+      return -1;
+    }
+    done += (size_t)n;
+  }
+  return 0;
+}
+
+int eeprom_store_save(const char *path, const uint8_t *eeprom, size_t size, char *err, size_t err_len) {
+  char tmp[4096];
+  if (snprintf(tmp, sizeof(tmp), "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof(tmp)) {
+    snprintf(err, err_len, "state file path too long: %s", path);
+    return -1;
+  }
+  const int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    snprintf(err, err_len, "cannot write %s: %s", tmp, strerror(errno));
+    return -1;
+  }
+  if (write_all(fd, eeprom, size) != 0 || fsync(fd) != 0) {
+    snprintf(err, err_len, "cannot write %s: %s", tmp, strerror(errno));
+    close(fd);
+    unlink(tmp);
+    return -1;
+  }
+  close(fd);
+  if (rename(tmp, path) != 0) {
+    snprintf(err, err_len, "cannot replace %s: %s", path, strerror(errno));
+    unlink(tmp);
+    return -1;
+  }
+  /* Make the rename itself durable. */
+  char dir_buf[4096];
+  snprintf(dir_buf, sizeof(dir_buf), "%s", path);
+  const int dfd = open(dirname(dir_buf), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd >= 0) {
+    (void)fsync(dfd);
+    close(dfd);
+  }
+  return 0;
+}
+
+void eeprom_store_path(char *out, size_t out_len, const char *dir, unsigned n) {
+  snprintf(out, out_len, "%s/servo-%u.eeprom", dir, n);
+}

@@ -1,0 +1,296 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+#include "servo.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <avr_eeprom.h>
+#include <avr_uart.h>
+#include <sim_avr.h>
+#include <sim_core.h>
+#include <sim_elf.h>
+#include <sim_io.h>
+
+#include "sim_log.h"
+
+#define IO_SLOT(avr, addr) ((avr)->io[AVR_DATA_TO_IO(addr)])
+
+static void sleep_nothing(avr_t *avr, avr_cycle_count_t how_long) {
+  (void)avr;
+  (void)how_long; /* the world paces itself (world.c); simavr only jumps the clock */
+}
+
+static void set_power_on_flag(avr_t *avr);
+static void run_step(avr_t *avr);
+
+static avr_eeprom_t *find_eeprom(avr_t *avr) {
+  for (avr_io_t *io = avr->io_port; io; io = io->next) {
+    if (io->kind && strcmp(io->kind, "eeprom") == 0) {
+      return (avr_eeprom_t *)io;
+    }
+  }
+  return NULL;
+}
+
+/* simavr stores an EEPROM byte the moment EEPE is written (EEMPE set) and clears EEPE at
+ * once; only the EE_READY interrupt comes 3.4 ms later. Silicon keeps EEPE set for the whole
+ * write, and firmware polls it (eeprom_is_ready()). The servo restores that: EEPE reads 1
+ * from the write until 3.4 ms later (one cycle before simavr raises EE_READY, so a woken
+ * main loop sees the EEPROM ready). */
+static avr_cycle_count_t eeprom_write_done(avr_t *avr, avr_cycle_count_t when, void *param) {
+  (void)when;
+  servo_t *servo = param;
+  avr_regbit_clear(avr, find_eeprom(avr)->eepe);
+  servo->eeprom_busy = false;
+  return 0;
+}
+
+/* avr_reset() dropped the completion timer (simavr stored the byte already). */
+static void servo_was_reset(void *ctx) {
+  servo_t *servo = ctx;
+  servo->eeprom_busy = false;
+}
+
+static void eecr_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) {
+  servo_t *servo = param;
+  avr_eeprom_t *ee = find_eeprom(avr);
+  const bool master_enabled = avr_regbit_get(avr, ee->eempe);
+  const bool starts_write = master_enabled && ((v >> ee->eepe.bit) & ee->eepe.mask);
+  if (starts_write && servo->eeprom_busy) {
+    servo->eeprom_writes_while_busy++; /* silicon ignores it; simavr would store the byte */
+    avr_regbit_clear(avr, ee->eempe);
+    avr_regbit_set(avr, ee->eepe);
+    return;
+  }
+  ((avr_io_write_t)servo->eecr_hook_c)(avr, addr, v, servo->eecr_hook_param);
+  if (starts_write) {
+    servo->eeprom_writes++;
+    servo->dirty = true; /* persisted at the end of this world step */
+    servo->eeprom_busy = true;
+    servo->last_write_at = avr->cycle;
+    avr_cycle_timer_register(avr, SIM_EEPROM_WRITE_CYCLES - 1u, eeprom_write_done, servo);
+  }
+  if (servo->eeprom_busy) {
+    avr_regbit_set(avr, ee->eepe); /* simavr's handler clears it on every EECR write */
+  }
+}
+
+static int prepare_eeprom(servo_t *servo, const servo_config_t *config, uint8_t *image, char *err, size_t err_len) {
+  if (config->eeprom) {
+    memset(image, 0xFF, servo->eeprom_size);
+    memcpy(image, config->eeprom, config->eeprom_len < servo->eeprom_size ? config->eeprom_len : servo->eeprom_size);
+    memcpy(servo->persisted, image, servo->eeprom_size);
+    return 0;
+  }
+  int found = 0;
+  if (config->state_path) {
+    found = eeprom_store_load(config->state_path, image, servo->eeprom_size, err, err_len);
+    if (found < 0) {
+      return -1;
+    }
+  }
+  if (found) {
+    memcpy(servo->persisted, image, servo->eeprom_size);
+    return 0;
+  }
+  eeprom_store_seed(image, servo->eeprom_size, config->profile, config->id, config->baud_reg);
+  if (config->state_path) {
+    if (eeprom_store_save(config->state_path, image, servo->eeprom_size, err, err_len) != 0) {
+      return -1;
+    }
+  }
+  memcpy(servo->persisted, image, servo->eeprom_size);
+  return 0;
+}
+
+servo_t *servo_create(const servo_config_t *config, bus_t *bus, char *err, size_t err_len) {
+  sim_log_install();
+  servo_t *servo = calloc(1, sizeof(*servo));
+  if (!servo) {
+    snprintf(err, err_len, "out of memory");
+    return NULL;
+  }
+  snprintf(servo->name, sizeof(servo->name), "%s", config->name ? config->name : "servo");
+  if (config->state_path) {
+    snprintf(servo->state_path, sizeof(servo->state_path), "%s", config->state_path);
+  }
+  avr_t *avr = avr_make_mcu_by_name(config->mcu);
+  if (!avr) {
+    snprintf(err, err_len, "unknown MCU '%s'", config->mcu);
+    free(servo);
+    return NULL;
+  }
+  servo->avr = avr;
+  avr_init(avr);
+  avr->log = LOG_ERROR;
+  avr_load_firmware(avr, (elf_firmware_t *)config->firmware);
+  avr->frequency = SIM_CPU_HZ;
+  avr->vcc = avr->avcc = avr->aref = 5000;
+  avr->sleep = sleep_nothing;
+  avr->run = run_step;
+  set_power_on_flag(avr);
+
+  avr_eeprom_t *ee = find_eeprom(avr);
+  if (!ee || !ee->eeprom) {
+    snprintf(err, err_len, "MCU '%s' has no EEPROM in simavr", config->mcu);
+    servo_destroy(servo);
+    return NULL;
+  }
+  servo->eeprom = ee->eeprom;
+  servo->eeprom_size = ee->size;
+  servo->persisted = malloc(servo->eeprom_size);
+  uint8_t *image = malloc(servo->eeprom_size);
+  if (!servo->persisted || !image) {
+    free(image);
+    snprintf(err, err_len, "out of memory");
+    servo_destroy(servo);
+    return NULL;
+  }
+  if (prepare_eeprom(servo, config, image, err, err_len) != 0) {
+    free(image);
+    servo_destroy(servo);
+    return NULL;
+  }
+  memcpy(servo->eeprom, image, servo->eeprom_size);
+  free(image);
+
+  servo->eecr_hook_c = (void *)IO_SLOT(avr, ee->r_eecr).w.c;
+  servo->eecr_hook_param = IO_SLOT(avr, ee->r_eecr).w.param;
+  IO_SLOT(avr, ee->r_eecr).w.c = eecr_write;
+  IO_SLOT(avr, ee->r_eecr).w.param = servo;
+
+  if (!board_attach(&servo->board, avr, bus, servo->name)) {
+    snprintf(err, err_len, "MCU '%s' lacks a part the board needs (USART0, ports B/D) or the bus is full",
+             config->mcu);
+    servo_destroy(servo);
+    return NULL;
+  }
+  servo->board.on_reset = servo_was_reset;
+  servo->board.on_reset_ctx = servo;
+  servo->ready = true;
+  return servo;
+}
+
+void servo_destroy(servo_t *servo) {
+  if (!servo) {
+    return;
+  }
+  if (servo->ready && servo->state_path[0] && !servo->persist_errors) {
+    (void)servo_persist(servo);
+  }
+  if (servo->avr) {
+    avr_terminate(servo->avr);
+    board_detach(&servo->board);
+    free(servo->avr);
+  }
+  free(servo->persisted);
+  free(servo);
+}
+
+/* One step of the core, as simavr 1.6's avr_callback_run_raw() without its sleep: run an
+ * instruction (if awake), the due cycle timers, and the interrupts. A sleeping core's clock
+ * is advanced by servo_run_until() instead, exactly to its next timer (simavr would jump one
+ * cycle past it, and from there to the following timer within the same call). */
+static void run_step(avr_t *avr) {
+  avr_flashaddr_t new_pc = avr->pc;
+  if (avr->state == cpu_Running) {
+    new_pc = avr_run_one(avr);
+  }
+  (void)avr_cycle_timer_process(avr);
+  avr->pc = new_pc;
+  if (avr->state == cpu_Sleeping && !avr->sreg[S_I]) {
+    avr->state = cpu_Done; /* SLEEP with interrupts off: nothing can wake it */
+    return;
+  }
+  if ((avr->state == cpu_Running || avr->state == cpu_Sleeping) && avr->interrupt_state) {
+    avr_service_interrupts(avr);
+  }
+}
+
+void servo_run_until(servo_t *servo, sim_cycles_t t) {
+  avr_t *avr = servo->avr;
+  while (!servo->halted && avr->cycle < t) {
+    if (avr->state == cpu_Sleeping) {
+      const avr_cycle_timer_slot_p next = avr->cycle_timers.timer;
+      if (!next || next->when >= t) {
+        avr->cycle = t;
+        break;
+      }
+      if (next->when > avr->cycle) {
+        avr->cycle = next->when;
+      }
+    }
+    run_step(avr);
+    if (avr->state == cpu_Done || avr->state == cpu_Crashed) {
+      servo->halted = true;
+      servo->halt_state = avr->state;
+      fprintf(stderr, "%s: the MCU stopped (%s) at cycle %llu, pc 0x%04x\n", servo->name,
+              avr->state == cpu_Done ? "sleep with interrupts off" : "crash", (unsigned long long)avr->cycle,
+              (unsigned)avr->pc);
+    }
+  }
+}
+
+bool servo_eeprom_unsettled(const servo_t *servo, sim_cycles_t now) {
+  return servo->dirty || servo->eeprom_busy || now < servo->last_write_at + SIM_EEPROM_WRITE_CYCLES + SERVO_EEPROM_QUIET;
+}
+
+int servo_persist(servo_t *servo) {
+  if (!servo->state_path[0]) {
+    servo->dirty = false;
+    memcpy(servo->persisted, servo->eeprom, servo->eeprom_size);
+    return 0;
+  }
+  if (memcmp(servo->eeprom, servo->persisted, servo->eeprom_size) == 0) {
+    servo->dirty = false;
+    return 0;
+  }
+  if (eeprom_store_save(servo->state_path, servo->eeprom, servo->eeprom_size, servo->last_error,
+                        sizeof(servo->last_error)) != 0) {
+    servo->persist_errors++;
+    return -1;
+  }
+  memcpy(servo->persisted, servo->eeprom, servo->eeprom_size);
+  servo->dirty = false;
+  servo->persists++;
+  return 1;
+}
+
+int servo_poll_persist(servo_t *servo) {
+  if (!servo->dirty) {
+    return 0;
+  }
+  return servo_persist(servo);
+}
+
+bool servo_listening(const servo_t *servo) {
+  return !servo->halted && avr_regbit_get(servo->avr, servo->board.link.uart->rxen);
+}
+
+void servo_reset(servo_t *servo) {
+  avr_reset(servo->avr);
+  servo->halted = false;
+}
+
+static void set_power_on_flag(avr_t *avr) {
+  if (avr->reset_flags.porf.reg) {
+    avr_regbit_set(avr, avr->reset_flags.porf);
+  }
+}
+
+void servo_power_cycle(servo_t *servo) {
+  servo_reset(servo);
+  set_power_on_flag(servo->avr);
+}
+
+unsigned servo_stack_depth(const servo_t *servo, uint16_t bss_end, uint8_t paint_pattern) {
+  const avr_t *avr = servo->avr;
+  const unsigned ramend = avr->ramend;
+  for (unsigned addr = bss_end; addr <= ramend; addr++) {
+    if (avr->data[addr] != paint_pattern) {
+      return ramend - addr + 1u;
+    }
+  }
+  return 0;
+}

@@ -1,0 +1,108 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+/* One AX-12: an ATmega88 (or ATmega328P) in simavr running the firmware ELF, on its board,
+ * with its EEPROM kept in a state file.
+ *
+ * EEPROM timing: simavr stores a byte the moment the firmware sets EEPE (with EEMPE) and
+ * raises EE_READY 3.4 ms later, but clears EEPE at once; the servo keeps EEPE set for those
+ * 3.4 ms as silicon does (firmware that polls eeprom_is_ready() waits like on a board).
+ *
+ * Persistence: the servo watches EECR. At the end of the world step in which a byte was
+ * written (< 10 us of simulated time later) the whole EEPROM is written to the state file,
+ * atomically. Any consequence of the write (the reply to a WRITE) needs at least one byte
+ * time (10 us at 1 Mbps, more than a step) before it leaves the simulation, so a reply proves
+ * persistence, even against SIGKILL. A sequence of byte writes is persisted byte by byte,
+ * exactly as the EEPROM holds it, so a kill in the middle of a sequence leaves what a power
+ * cut at that moment would leave. */
+#ifndef SIM_SERVO_H
+#define SIM_SERVO_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "board.h"
+#include "bus.h"
+#include "eeprom_store.h"
+#include "sim_time.h"
+
+struct avr_t;
+struct elf_firmware_t;
+
+#define SIM_EEPROM_WRITE_CYCLES ((sim_cycles_t)3400u * SIM_CYCLES_PER_US)
+/* Quiet time after the last write completed that ends a write sequence (clean shutdown). */
+#define SERVO_EEPROM_QUIET ((sim_cycles_t)1000u * SIM_CYCLES_PER_US)
+
+typedef struct {
+  const char *name;                       /* for messages and the bus, e.g. "servo-1" */
+  const struct elf_firmware_t *firmware;  /* loaded once, shared by every servo */
+  const char *mcu;                        /* "atmega88" or "atmega328p" */
+  const char *state_path;                 /* NULL: the EEPROM lives in memory only */
+  eeprom_profile_t profile;               /* for seeding a fresh EEPROM */
+  uint8_t id;                             /* ID of a fresh EEPROM */
+  uint8_t baud_reg;                       /* Baud Rate register of a fresh EEPROM */
+  const uint8_t *eeprom;                  /* if not NULL: the EEPROM at power-up (tests) */
+  size_t eeprom_len;
+} servo_config_t;
+
+typedef struct servo {
+  struct avr_t *avr;
+  board_t board;
+  char name[32];
+  char state_path[4096];
+  bool ready; /* fully created */
+  bool halted;
+  int halt_state; /* simavr cpu state when it stopped (cpu_Done, cpu_Crashed) */
+  /* EEPROM watch. */
+  uint8_t *eeprom; /* simavr's bytes */
+  size_t eeprom_size;
+  uint8_t *persisted; /* what the state file holds */
+  bool dirty;        /* written since the last persist */
+  bool eeprom_busy;  /* a byte write is under way (EEPE held) */
+  sim_cycles_t last_write_at;
+  void *eecr_hook_c, *eecr_hook_param;
+  uint64_t eeprom_writes;
+  uint64_t eeprom_writes_while_busy;
+  uint64_t persists;
+  uint64_t persist_errors;
+  char last_error[256];
+} servo_t;
+
+/* Loads the firmware into a new MCU, its EEPROM from the state file (seeded when missing:
+ * see eeprom_store_seed), and wires the board onto bus. NULL with err set on failure. */
+servo_t *servo_create(const servo_config_t *config, bus_t *bus, char *err, size_t err_len);
+
+/* Frees everything; persists a changed EEPROM first (call when no write is in progress). */
+void servo_destroy(servo_t *servo);
+
+/* Runs the MCU until its clock reaches t: a running core stops at the first instruction
+ * boundary at or after t, a sleeping one exactly at t. A sleeping core's clock jumps from
+ * one cycle timer to the next (idle firmware costs almost nothing). */
+void servo_run_until(servo_t *servo, sim_cycles_t t);
+
+/* Persists the EEPROM if a byte was written since the last time. Returns -1 when a write
+ * failed (message in last_error), 1 when written, 0 otherwise. */
+int servo_poll_persist(servo_t *servo);
+
+/* True while a write sequence may be under way: a write not persisted or not finished, or
+ * finished less than SERVO_EEPROM_QUIET ago. */
+bool servo_eeprom_unsettled(const servo_t *servo, sim_cycles_t now);
+
+/* Persists now if the EEPROM differs from the file. */
+int servo_persist(servo_t *servo);
+
+/* True once the firmware has enabled the USART receiver (it can hear the bus). */
+bool servo_listening(const servo_t *servo);
+
+/* Pulls the MCU's reset line (as the watchdog would): RAM, I/O and the USART restart,
+ * the EEPROM stays. */
+void servo_reset(servo_t *servo);
+
+/* Power off and on: as servo_reset, with the power-on reset flag (PORF) set in MCUSR. */
+void servo_power_cycle(servo_t *servo);
+
+/* Stack depth: RAMEND - (lowest address above the end of .bss whose byte is not
+ * paint_pattern) + 1, i.e. the deepest the stack has reached since the paint. bss_end is the
+ * first free RAM address (the ELF's __bss_end / _end). */
+unsigned servo_stack_depth(const servo_t *servo, uint16_t bss_end, uint8_t paint_pattern);
+
+#endif

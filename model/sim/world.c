@@ -1,0 +1,160 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+#include "world.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <sim_avr.h>
+#include <sim_elf.h>
+
+#include "sim_log.h"
+
+world_t *world_create(const char *elf_path, const char *mcu, eeprom_profile_t profile, char *err, size_t err_len) {
+  sim_log_install();
+  world_t *world = calloc(1, sizeof(*world));
+  elf_firmware_t *fw = calloc(1, sizeof(*fw));
+  if (!world || !fw) {
+    free(world);
+    free(fw);
+    snprintf(err, err_len, "out of memory");
+    return NULL;
+  }
+  FILE *probe = fopen(elf_path, "rb");
+  if (!probe) {
+    snprintf(err, err_len, "firmware ELF not found: %s", elf_path);
+    free(world);
+    free(fw);
+    return NULL;
+  }
+  fclose(probe);
+  if (elf_read_firmware(elf_path, fw) != 0 || fw->flashsize == 0) {
+    snprintf(err, err_len, "cannot load firmware ELF %s", elf_path);
+    free(world);
+    free(fw);
+    return NULL;
+  }
+  if (fw->mmcu[0] && strcmp(fw->mmcu, mcu) != 0) {
+    fprintf(stderr, "warning: %s says it is for %s, running it on %s\n", elf_path, fw->mmcu, mcu);
+  }
+  world->firmware = fw;
+  snprintf(world->mcu, sizeof(world->mcu), "%s", mcu);
+  world->profile = profile;
+  bus_init(&world->bus);
+  return world;
+}
+
+void world_destroy(world_t *world) {
+  if (!world) {
+    return;
+  }
+  for (size_t i = 0; i < world->servo_count; i++) {
+    servo_destroy(world->servos[i]);
+  }
+  bus_free(&world->bus);
+  if (world->firmware) {
+    free(world->firmware->flash);
+    free(world->firmware->eeprom);
+    free(world->firmware->fuse);
+    free(world->firmware->lockbits);
+#if ELF_SYMBOLS
+    for (uint32_t i = 0; i < world->firmware->symbolcount; i++) {
+      free(world->firmware->symbol[i]);
+    }
+    free(world->firmware->symbol);
+#endif
+    free(world->firmware);
+  }
+  free(world);
+}
+
+static servo_t *add(world_t *world, servo_config_t *config, char *err, size_t err_len) {
+  if (world->servo_count >= WORLD_MAX_SERVOS) {
+    snprintf(err, err_len, "too many servos (at most %u)", WORLD_MAX_SERVOS);
+    return NULL;
+  }
+  config->firmware = world->firmware;
+  config->mcu = world->mcu;
+  config->profile = world->profile;
+  servo_t *servo = servo_create(config, &world->bus, err, err_len);
+  if (!servo) {
+    return NULL;
+  }
+  /* A servo joins at the world's time: its clock starts there. */
+  servo->avr->cycle = world->now;
+  world->servos[world->servo_count++] = servo;
+  return servo;
+}
+
+servo_t *world_add_servo(world_t *world, uint8_t id, uint8_t baud_reg, const char *state_path, char *err,
+                         size_t err_len) {
+  char name[32];
+  snprintf(name, sizeof(name), "servo-%u", (unsigned)id);
+  servo_config_t config = {.name = name, .state_path = state_path, .id = id, .baud_reg = baud_reg};
+  return add(world, &config, err, err_len);
+}
+
+servo_t *world_add_servo_with_eeprom(world_t *world, const char *name, const uint8_t *eeprom, size_t len,
+                                     char *err, size_t err_len) {
+  servo_config_t config = {.name = name, .eeprom = eeprom, .eeprom_len = len};
+  return add(world, &config, err, err_len);
+}
+
+int world_poll_persist(world_t *world) {
+  int failures = 0;
+  for (size_t i = 0; i < world->servo_count; i++) {
+    if (servo_poll_persist(world->servos[i]) < 0) {
+      failures++;
+    }
+  }
+  return failures;
+}
+
+void world_run_until(world_t *world, sim_cycles_t t) {
+  bus_t *bus = &world->bus;
+  while (world->now < t) {
+    bus_finalize(bus, world->now);
+    sim_cycles_t horizon = t;
+    const sim_cycles_t lookahead = world->now + bus_lookahead(bus);
+    if (lookahead < horizon) {
+      horizon = lookahead;
+    }
+    const sim_cycles_t next_final = bus_next_finalize(bus);
+    if (next_final < horizon) {
+      horizon = next_final;
+    }
+    for (size_t i = 0; i < world->servo_count; i++) {
+      servo_run_until(world->servos[i], horizon);
+    }
+    world->now = horizon;
+    bus_finalize(bus, horizon);
+    world->steps++;
+    (void)world_poll_persist(world);
+    if (world->after_step) {
+      world->after_step(world, world->after_step_ctx);
+    }
+  }
+}
+
+bool world_eeprom_unsettled(const world_t *world) {
+  for (size_t i = 0; i < world->servo_count; i++) {
+    if (servo_eeprom_unsettled(world->servos[i], world->now)) {
+      return true;
+    }
+  }
+  return false;
+}
+
+int world_settle_and_persist(world_t *world, sim_cycles_t max_cycles) {
+  const sim_cycles_t limit = world->now + max_cycles;
+  while (world->now < limit && world_eeprom_unsettled(world)) {
+    world_run_until(world, world->now + sim_us(100));
+  }
+  int failures = 0;
+  for (size_t i = 0; i < world->servo_count; i++) {
+    if (servo_persist(world->servos[i]) < 0) {
+      failures++;
+    }
+  }
+  return failures;
+}

@@ -1,0 +1,66 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+/* The simulated world: servos and host nodes (test masters, the pty bridge) on one bus, all
+ * advanced in lockstep by simulated time in one thread.
+ *
+ * The step: every MCU runs to a common horizon H, then the bus finalizes the bytes that end
+ * within BUS_FINALIZE_MARGIN of H. H is at most bus_lookahead() past now (a byte started in
+ * a step cannot end inside it: at 1 Mbps a step is at most 144 cycles, 9 us) and never past
+ * the next pending byte's finalization point, so every delivery is decided before any
+ * receiver reaches it and happens at the byte's exact end cycle. */
+#ifndef SIM_WORLD_H
+#define SIM_WORLD_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "bus.h"
+#include "eeprom_store.h"
+#include "servo.h"
+#include "sim_time.h"
+
+struct elf_firmware_t;
+
+#define WORLD_MAX_SERVOS 254u
+
+typedef struct world {
+  bus_t bus;
+  sim_cycles_t now;
+  struct elf_firmware_t *firmware;
+  char mcu[32];
+  eeprom_profile_t profile;
+  servo_t *servos[WORLD_MAX_SERVOS];
+  size_t servo_count;
+  uint64_t steps;
+  /* Optional: called after every step with the world's new time (the seam for a physics
+   * model: read board_pwm_duty(), step the plant, feed board_set_pot_deg() and friends). */
+  void (*after_step)(struct world *world, void *ctx);
+  void *after_step_ctx;
+} world_t;
+
+/* Reads the ELF once. NULL with err set when it cannot be read. */
+world_t *world_create(const char *elf_path, const char *mcu, eeprom_profile_t profile, char *err, size_t err_len);
+void world_destroy(world_t *world);
+
+/* Adds a servo for slot `id`: EEPROM from state_path (NULL: in memory), seeded with `id` and
+ * baud_reg when missing. Returns the servo, or NULL with err set. */
+servo_t *world_add_servo(world_t *world, uint8_t id, uint8_t baud_reg, const char *state_path, char *err,
+                         size_t err_len);
+/* As world_add_servo with an explicit EEPROM at power-up (tests). */
+servo_t *world_add_servo_with_eeprom(world_t *world, const char *name, const uint8_t *eeprom, size_t len,
+                                     char *err, size_t err_len);
+
+/* Advances every node to time t (>= now). */
+void world_run_until(world_t *world, sim_cycles_t t);
+
+/* Persists every EEPROM whose write sequence has finished. Returns the number of failures. */
+int world_poll_persist(world_t *world);
+
+/* True while any servo may be in the middle of an EEPROM write sequence. */
+bool world_eeprom_unsettled(const world_t *world);
+
+/* For a clean shutdown: runs up to max_cycles more until no EEPROM write sequence is under
+ * way, then persists every EEPROM. Returns the number of failures. */
+int world_settle_and_persist(world_t *world, sim_cycles_t max_cycles);
+
+#endif

@@ -1,0 +1,72 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""Helpers for the ax12-emu tests: start `ax12-emu serve`, wait for its `ready:` line, build
+Dynamixel Protocol 1.0 packets. ctest sets AX12_EMU and AX12_FIRMWARE_DIR."""
+import os
+import select
+import signal
+import subprocess
+import time
+
+import pytest
+
+EMU = os.environ.get("AX12_EMU", "")
+FIRMWARE_DIR = os.environ.get("AX12_FIRMWARE_DIR", "")
+FIRMWARE_REQUIRED = os.environ.get("AX12_FIRMWARE_REQUIRED", "1") == "1"
+
+
+def packet(ident, instruction, params=b""):
+    body = bytes([ident, len(params) + 2, instruction]) + bytes(params)
+    return b"\xff\xff" + body + bytes([(~sum(body)) & 0xFF])
+
+
+class Emulator:
+    def __init__(self, args, timeout=20.0):
+        self.args = [EMU, "serve"] + list(args)
+        self.proc = subprocess.Popen(self.args, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+        self.device = None
+        line = b""
+        deadline = time.monotonic() + timeout
+        while not line.endswith(b"\n"):
+            left = deadline - time.monotonic()
+            if left <= 0 or self.proc.poll() is not None:
+                break
+            ready, _, _ = select.select([self.proc.stdout], [], [], left)
+            if ready:
+                chunk = os.read(self.proc.stdout.fileno(), 1)
+                if not chunk:
+                    break
+                line += chunk
+        if not line.startswith(b"ready: "):
+            err = self.proc.stderr.read1(4096).decode(errors="replace") if self.proc.poll() is not None else ""
+            self.kill()
+            raise RuntimeError(f"ax12-emu did not get ready: {line!r} {err}")
+        self.device = line[len(b"ready: "):].strip().decode()
+
+    def kill(self, sig=signal.SIGKILL):
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+        return self.proc.wait(timeout=20)
+
+    def stop(self):
+        return self.kill(signal.SIGTERM)
+
+
+@pytest.fixture
+def emulator():
+    if not EMU or not os.access(EMU, os.X_OK):
+        pytest.fail("AX12_EMU does not name the ax12-emu program")
+    elf = os.path.join(FIRMWARE_DIR, "ax12-ax12-atmega88.elf")
+    if not os.path.exists(elf):
+        if FIRMWARE_REQUIRED:
+            pytest.fail(f"firmware ELF missing: {elf}")
+        pytest.skip(f"no firmware ELF {elf}")
+    started = []
+
+    def start(*args, **kwargs):
+        emu = Emulator(["--firmware-dir", FIRMWARE_DIR] + list(args), **kwargs)
+        started.append(emu)
+        return emu
+
+    yield start
+    for emu in started:
+        emu.kill()

@@ -1,0 +1,346 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+/* The firmware ELF in simavr on the simulated bus: reply timing on the wire (Return Delay
+ * Time), baud and ID changes and RESET (reply with the old settings), EEPROM state across
+ * restarts, a corrupt image, several servos on one wire, every ELF variant. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "dxl_image.h"
+#include "dxl_protocol.h"
+#include "eeprom_store.h"
+#include "sim_harness.h"
+
+#define STATUS_LEN(params) (6u + (params))
+
+static const uint8_t ping_reply_id1[] = {0xFF, 0xFF, 0x01, 0x02, 0x00, 0xFC};
+
+static void expect_bytes(const uint8_t *got, size_t got_len, const uint8_t *want, size_t want_len) {
+  if (got_len != want_len || memcmp(got, want, want_len) != 0) {
+    char a[512];
+    char b[512];
+    fail_msg("expected %s, heard %s", harness_hex(want, want_len, a, sizeof(a)), harness_hex(got, got_len, b, sizeof(b)));
+  }
+}
+
+static void expect_status(harness_t *h, const uint8_t *got, size_t got_len, uint8_t id, uint8_t error,
+                          const uint8_t *params, size_t count) {
+  (void)h;
+  uint8_t want[64];
+  const size_t n = harness_packet(want, id, error, params, count);
+  expect_bytes(got, got_len, want, n);
+}
+
+static void open_one(harness_t *h, const char *state_dir) {
+  harness_open(h, "ax12", "atmega88", 1);
+  harness_add_servo(h, 1, 1, state_dir);
+  harness_boot(h, 5);
+}
+
+/* Writes one byte at addr of servo id and checks the reply. */
+static void write_byte(harness_t *h, uint8_t id, uint8_t addr, uint8_t value) {
+  uint8_t reply[64];
+  const size_t n = harness_request(h, id, DXL_INST_WRITE, HP(addr, value), STATUS_LEN(0), reply);
+  expect_status(h, reply, n, id, 0, H_NO_PARAMS);
+}
+
+static uint8_t read_byte(harness_t *h, uint8_t id, uint8_t addr) {
+  uint8_t reply[64];
+  const size_t n = harness_request(h, id, DXL_INST_READ, HP(addr, 1), STATUS_LEN(1), reply);
+  assert_int_equal(n, STATUS_LEN(1));
+  assert_int_equal(reply[4], 0);
+  return reply[5];
+}
+
+/* Cycles from the end of the request's last stop bit to the start of the reply's first start
+ * bit, as the master saw them on the wire. */
+static sim_cycles_t ping_latency(harness_t *h, uint8_t id) {
+  uint8_t packet[16];
+  const size_t len = harness_packet(packet, id, DXL_INST_PING, H_NO_PARAMS);
+  master_rx_clear(h->master);
+  const sim_cycles_t request_end = master_send(h->master, packet, len);
+  uint8_t reply[64];
+  world_run_until(h->world, request_end);
+  const size_t n = harness_exchange(h, NULL, 0, STATUS_LEN(0), reply, sizeof(reply));
+  (void)n;
+  assert_int_equal(master_rx_count(h->master), STATUS_LEN(0));
+  const bus_rx_t *first = master_rx(h->master, 0);
+  assert_int_equal(first->flags, 0);
+  return first->start - request_end;
+}
+
+static void test_ping_is_answered_on_the_wire(void **state) {
+  (void)state;
+  harness_t h;
+  open_one(&h, NULL);
+  uint8_t reply[64];
+  const size_t n = harness_request(&h, 1, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0), reply);
+  expect_bytes(reply, n, ping_reply_id1, sizeof(ping_reply_id1));
+  /* Back to back at 1 Mbps: 160 cycles a byte. */
+  for (size_t i = 0; i < n; i++) {
+    const bus_rx_t *b = master_rx(h.master, i);
+    assert_int_equal(b->end - b->start, 160);
+    assert_int_equal(b->flags, 0);
+    if (i) {
+      assert_int_equal(b->start, master_rx(h.master, i - 1)->end);
+    }
+  }
+  harness_close(&h);
+}
+
+static void test_reply_starts_two_us_times_return_delay_time_after_the_stop_bit(void **state) {
+  (void)state;
+  harness_t h;
+  open_one(&h, NULL);
+  static const uint8_t rdts[] = {0, 1, 10, 250, 254};
+  sim_cycles_t lo[sizeof(rdts)];
+  sim_cycles_t hi[sizeof(rdts)];
+  for (size_t r = 0; r < sizeof(rdts); r++) {
+    write_byte(&h, 1, 5, rdts[r]);
+    lo[r] = SIM_CYCLES_NEVER;
+    hi[r] = 0;
+    /* Several pings at different phases of the firmware's timers. */
+    for (unsigned k = 0; k < 12; k++) {
+      world_run_until(h.world, h.world->now + sim_us(37u * k + 3u));
+      const sim_cycles_t latency = ping_latency(&h, 1);
+      lo[r] = latency < lo[r] ? latency : lo[r];
+      hi[r] = latency > hi[r] ? latency : hi[r];
+    }
+    const double expected = 2.0 * rdts[r] * SIM_CYCLES_PER_US;
+    printf("RDT %3u: reply starts %llu..%llu cycles (%.2f..%.2f us) after the request's stop bit; "
+           "2 us x RDT = %u us; error %+.2f..%+.2f us\n",
+           rdts[r], (unsigned long long)lo[r], (unsigned long long)hi[r], sim_cycles_to_us(lo[r]),
+           sim_cycles_to_us(hi[r]), 2u * rdts[r], ((double)lo[r] - expected) / SIM_CYCLES_PER_US,
+           ((double)hi[r] - expected) / SIM_CYCLES_PER_US);
+  }
+  for (size_t r = 0; r < sizeof(rdts); r++) {
+    const double expected = 2.0 * rdts[r] * SIM_CYCLES_PER_US;
+    if (rdts[r] != 0 && ((double)lo[r] < expected - 2.0 * SIM_CYCLES_PER_US ||
+                         (double)hi[r] > expected + 2.0 * SIM_CYCLES_PER_US)) {
+      fail_msg("RDT %u: the reply starts %.2f..%.2f us after the stop bit, not within 2 us of %u us", rdts[r],
+               sim_cycles_to_us(lo[r]), sim_cycles_to_us(hi[r]), 2u * rdts[r]);
+    }
+  }
+  harness_close(&h);
+}
+
+static void test_a_baud_change_replies_at_the_old_baud_then_only_the_new_one_works(void **state) {
+  (void)state;
+  harness_t h;
+  open_one(&h, NULL);
+  uint8_t reply[64];
+  size_t n = harness_request(&h, 1, DXL_INST_WRITE, HP(4, 34), STATUS_LEN(0), reply);
+  expect_bytes(reply, n, ping_reply_id1, sizeof(ping_reply_id1));
+  assert_int_equal(master_rx(h.master, 0)->end - master_rx(h.master, 0)->start, 160); /* at 1 Mbps */
+  /* At 1 Mbps now: garbage or nothing, never a status packet. */
+  n = harness_request(&h, 1, DXL_INST_PING, H_NO_PARAMS, 0, reply);
+  for (size_t i = 0; i < master_rx_count(h.master); i++) {
+    assert_true(master_rx(h.master, i)->flags & BUS_RX_BAUD_MISMATCH);
+  }
+  /* 2 000 000 / 35 = 57 143 bit/s: 280 cycles a bit. */
+  master_set_baud_reg(h.master, 34);
+  n = harness_request(&h, 1, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0), reply);
+  expect_bytes(reply, n, ping_reply_id1, sizeof(ping_reply_id1));
+  assert_int_equal(master_rx(h.master, 0)->end - master_rx(h.master, 0)->start, 2800);
+  assert_int_equal(master_rx(h.master, 0)->flags, 0);
+  /* 57 600 bit/s (what a client asks for) is within 3 % of it. */
+  master_set_bps(h.master, 57600.0);
+  n = harness_request(&h, 1, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0), reply);
+  expect_bytes(reply, n, ping_reply_id1, sizeof(ping_reply_id1));
+  harness_close(&h);
+}
+
+static void test_an_id_change_is_answered_with_the_old_id(void **state) {
+  (void)state;
+  harness_t h;
+  open_one(&h, NULL);
+  uint8_t reply[64];
+  size_t n = harness_request(&h, 1, DXL_INST_WRITE, HP(3, 5), STATUS_LEN(0), reply);
+  expect_bytes(reply, n, ping_reply_id1, sizeof(ping_reply_id1));
+  n = harness_request(&h, 5, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0), reply);
+  expect_status(&h, reply, n, 5, 0, H_NO_PARAMS);
+  n = harness_request(&h, 1, DXL_INST_PING, H_NO_PARAMS, 0, reply);
+  assert_int_equal(n, 0);
+  harness_close(&h);
+}
+
+static void test_reset_is_answered_with_the_old_id_then_factory_settings_apply(void **state) {
+  (void)state;
+  harness_t h;
+  open_one(&h, NULL);
+  uint8_t reply[64];
+  write_byte(&h, 1, 3, 7);
+  size_t n = harness_request(&h, 7, DXL_INST_RESET, H_NO_PARAMS, STATUS_LEN(0), reply);
+  expect_status(&h, reply, n, 7, 0, H_NO_PARAMS);
+  n = harness_request(&h, 7, DXL_INST_PING, H_NO_PARAMS, 0, reply);
+  assert_int_equal(n, 0);
+  n = harness_request(&h, 1, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0), reply);
+  expect_bytes(reply, n, ping_reply_id1, sizeof(ping_reply_id1));
+  harness_close(&h);
+}
+
+static void test_settings_survive_a_restart(void **state) {
+  (void)state;
+  char dir[256];
+  harness_tempdir(dir, sizeof(dir));
+  harness_t h;
+  open_one(&h, dir);
+  assert_int_equal(read_byte(&h, 1, 5), 250);
+  write_byte(&h, 1, 5, 10);
+  write_byte(&h, 1, 17, 0x24); /* Alarm LED */
+  harness_close(&h);
+
+  open_one(&h, dir);
+  assert_int_equal(read_byte(&h, 1, 5), 10);
+  assert_int_equal(read_byte(&h, 1, 17), 0x24);
+  harness_close(&h);
+  harness_rmdir(dir);
+}
+
+static void test_a_corrupt_image_boots_to_factory_defaults_and_is_repaired(void **state) {
+  (void)state;
+  char dir[256];
+  harness_tempdir(dir, sizeof(dir));
+  char path[512];
+  eeprom_store_path(path, sizeof(path), dir, 1);
+  uint8_t eeprom[512];
+  eeprom_store_seed(eeprom, sizeof(eeprom), EEPROM_PROFILE_AX12, 7, 1);
+  eeprom[DXL_IMAGE_OFS_TABLE + 5] = 20;    /* RDT 20 ... */
+  eeprom[DXL_IMAGE_OFS_CRC] ^= 0x5A;       /* ... under a broken CRC */
+  char err[256];
+  assert_int_equal(eeprom_store_save(path, eeprom, sizeof(eeprom), err, sizeof(err)), 0);
+
+  harness_t h;
+  harness_open(&h, "ax12", "atmega88", 1);
+  harness_add_servo(&h, 1, 1, dir);
+  harness_boot(&h, 5);
+  uint8_t reply[64];
+  size_t n = harness_request(&h, 7, DXL_INST_PING, H_NO_PARAMS, 0, reply);
+  assert_int_equal(n, 0);
+  n = harness_request(&h, 1, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0), reply);
+  expect_bytes(reply, n, ping_reply_id1, sizeof(ping_reply_id1));
+  assert_int_equal(read_byte(&h, 1, 5), 250);
+  world_run_until(h.world, h.world->now + sim_ms(200));
+  harness_close(&h);
+  /* The firmware wrote the defaults back; the state file has them. */
+  assert_int_equal(eeprom_store_load(path, eeprom, sizeof(eeprom), err, sizeof(err)), 1);
+  uint8_t id = 0;
+  uint8_t baud = 0;
+  assert_true(eeprom_store_image_fields(eeprom, sizeof(eeprom), &id, &baud));
+  assert_int_equal(id, 1);
+  assert_int_equal(baud, 1);
+  assert_int_equal(eeprom[DXL_IMAGE_OFS_TABLE + 5], 250);
+  harness_rmdir(dir);
+}
+
+static void test_a_fresh_state_file_is_seeded_with_the_id_and_baud_asked_for(void **state) {
+  (void)state;
+  char dir[256];
+  harness_tempdir(dir, sizeof(dir));
+  harness_t h;
+  harness_open(&h, "ax12", "atmega88", 34);
+  harness_add_servo(&h, 9, 34, dir);
+  harness_boot(&h, 5);
+  uint8_t reply[64];
+  size_t n = harness_request(&h, 9, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0), reply);
+  expect_status(&h, reply, n, 9, 0, H_NO_PARAMS);
+  master_set_baud_reg(h.master, 1);
+  n = harness_request(&h, 9, DXL_INST_PING, H_NO_PARAMS, 0, reply);
+  assert_true(n == 0 || (master_rx(h.master, 0)->flags & BUS_RX_BAUD_MISMATCH));
+  harness_close(&h);
+  char path[512];
+  eeprom_store_path(path, sizeof(path), dir, 9);
+  assert_int_equal(access(path, R_OK), 0);
+  harness_rmdir(dir);
+}
+
+static void test_servos_on_one_wire_answer_their_own_ids_and_collide_on_broadcast_ping(void **state) {
+  (void)state;
+  harness_t h;
+  harness_open(&h, "ax12", "atmega88", 1);
+  for (uint8_t id = 1; id <= 3; id++) {
+    harness_add_servo(&h, id, 1, NULL);
+  }
+  harness_boot(&h, 5);
+  uint8_t reply[64];
+  for (uint8_t id = 1; id <= 3; id++) {
+    const size_t n = harness_request(&h, id, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0), reply);
+    expect_status(&h, reply, n, id, 0, H_NO_PARAMS);
+  }
+  /* The 2006 manual answers broadcast PING: three replies at the same moment. */
+  const uint64_t collided = h.world->bus.collided_bytes;
+  const size_t n = harness_request(&h, DXL_ID_BROADCAST, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0), reply);
+  char text[256];
+  printf("broadcast PING, 3 servos: the master heard %s\n", harness_hex(reply, n, text, sizeof(text)));
+  assert_true(h.world->bus.collided_bytes > collided);
+  assert_true(n > 0);
+  assert_true(master_rx(h.master, 0)->flags & BUS_RX_COLLISION);
+  harness_close(&h);
+}
+
+static void test_a_sync_write_to_30_servos_at_1_mbps_is_applied(void **state) {
+  (void)state;
+  harness_t h;
+  open_one(&h, NULL);
+  /* Goal Position and Moving Speed for IDs 1..30: 158 bytes back to back. */
+  uint8_t params[2 + 30 * 5];
+  params[0] = 30;
+  params[1] = 4;
+  for (uint8_t i = 0; i < 30; i++) {
+    uint8_t *slot = &params[2 + i * 5];
+    slot[0] = (uint8_t)(i + 1);
+    slot[1] = (uint8_t)(0x10 + i);
+    slot[2] = 0x01;
+    slot[3] = 0x40;
+    slot[4] = 0x00;
+  }
+  uint8_t reply[64];
+  assert_int_equal(harness_request(&h, DXL_ID_BROADCAST, DXL_INST_SYNC_WRITE, params, sizeof(params), 0, reply), 0);
+  const size_t n = harness_request(&h, 1, DXL_INST_READ, HP(30, 4), STATUS_LEN(4), reply);
+  expect_status(&h, reply, n, 1, 0, HP(0x10, 0x01, 0x40, 0x00));
+  harness_close(&h);
+}
+
+static void test_every_firmware_variant_boots_and_answers(void **state) {
+  (void)state;
+  static const char *const profiles[] = {"ax12", "ax12a"};
+  static const char *const mcus[] = {"atmega88", "atmega328p"};
+  for (size_t p = 0; p < 2; p++) {
+    for (size_t m = 0; m < 2; m++) {
+      harness_t h;
+      harness_open(&h, profiles[p], mcus[m], 1);
+      harness_add_servo(&h, 1, 1, NULL);
+      harness_boot(&h, 5);
+      uint8_t reply[64];
+      const size_t n = harness_request(&h, 1, DXL_INST_READ, HP(0, 3), STATUS_LEN(3), reply);
+      assert_int_equal(n, STATUS_LEN(3));
+      assert_int_equal(reply[5], 12); /* Model Number 12 */
+      assert_int_equal(reply[6], 0);
+      harness_close(&h);
+    }
+  }
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(test_ping_is_answered_on_the_wire),
+      cmocka_unit_test(test_reply_starts_two_us_times_return_delay_time_after_the_stop_bit),
+      cmocka_unit_test(test_a_baud_change_replies_at_the_old_baud_then_only_the_new_one_works),
+      cmocka_unit_test(test_an_id_change_is_answered_with_the_old_id),
+      cmocka_unit_test(test_reset_is_answered_with_the_old_id_then_factory_settings_apply),
+      cmocka_unit_test(test_settings_survive_a_restart),
+      cmocka_unit_test(test_a_corrupt_image_boots_to_factory_defaults_and_is_repaired),
+      cmocka_unit_test(test_a_fresh_state_file_is_seeded_with_the_id_and_baud_asked_for),
+      cmocka_unit_test(test_servos_on_one_wire_answer_their_own_ids_and_collide_on_broadcast_ping),
+      cmocka_unit_test(test_a_sync_write_to_30_servos_at_1_mbps_is_applied),
+      cmocka_unit_test(test_every_firmware_variant_boots_and_answers),
+  };
+  return cmocka_run_group_tests_name("sim servo (firmware ELF)", tests, NULL, NULL);
+}
