@@ -1,0 +1,50 @@
+# The AVR firmware, built by its own CMake project (firmware/CMakeLists.txt, toolchain
+# cmake/avr-gcc.cmake) once per MCU x behaviour profile, through ExternalProject: a CMake
+# project has one C compiler, and this one is the host's. Included by the top-level
+# CMakeLists.txt when AX12_BUILD_FIRMWARE is ON.
+#
+# Provides, for the simulator and its tests:
+#   AX12_FIRMWARE_DIR                   the ELFs: ${CMAKE_BINARY_DIR}/firmware/ax12-<profile>-<mcu>.elf
+#   AX12_FIRMWARE_MCUS                  atmega88 atmega328p
+#   AX12_FIRMWARE_PROFILES              ax12 ax12a
+#   AX12_FIRMWARE_ELF_<profile>_<mcu>   the path of one ELF
+#   AX12_FIRMWARE_ELFS                  all four paths
+#   target firmware                     builds all four (part of ALL); add_dependencies() on it
+#   targets firmware-<profile>-<mcu>    one each
+# Every build re-runs the four sub-builds (BUILD_ALWAYS: their sources are not known here),
+# which recompile what changed and print each ELF's flash and RAM use; the ATmega88 builds
+# fail above 8192 B flash or 1024 B static RAM.
+include_guard(GLOBAL)
+include(ExternalProject)
+
+find_program(AX12_AVR_GCC avr-gcc)
+if(NOT AX12_AVR_GCC)
+  message(FATAL_ERROR "avr-gcc not found: install gcc-avr avr-libc binutils-avr, "
+                      "or configure with -DAX12_BUILD_FIRMWARE=OFF")
+endif()
+
+get_filename_component(ax12_repo_dir ${CMAKE_CURRENT_LIST_DIR}/.. ABSOLUTE)
+set(AX12_FIRMWARE_DIR ${CMAKE_BINARY_DIR}/firmware)
+set(AX12_FIRMWARE_MCUS atmega88 atmega328p)
+set(AX12_FIRMWARE_PROFILES ax12 ax12a)
+set(AX12_FIRMWARE_ELFS "")
+
+add_custom_target(firmware ALL COMMENT "AVR firmware: ${AX12_FIRMWARE_DIR}")
+foreach(mcu ${AX12_FIRMWARE_MCUS})
+  foreach(profile ${AX12_FIRMWARE_PROFILES})
+    set(elf ${AX12_FIRMWARE_DIR}/ax12-${profile}-${mcu}.elf)
+    ExternalProject_Add(firmware-${profile}-${mcu}
+      SOURCE_DIR ${ax12_repo_dir}/firmware
+      BINARY_DIR ${CMAKE_BINARY_DIR}/firmware-build/${profile}-${mcu}
+      CMAKE_ARGS -DCMAKE_TOOLCHAIN_FILE=${ax12_repo_dir}/cmake/avr-gcc.cmake
+                 -DAVR_MCU=${mcu}
+                 -DDXL_PROFILE_NAME=${profile}
+                 -DAX12_FIRMWARE_OUTPUT_DIR=${AX12_FIRMWARE_DIR}
+      BUILD_ALWAYS ON
+      INSTALL_COMMAND ""
+      BUILD_BYPRODUCTS ${elf})
+    add_dependencies(firmware firmware-${profile}-${mcu})
+    set(AX12_FIRMWARE_ELF_${profile}_${mcu} ${elf})
+    list(APPEND AX12_FIRMWARE_ELFS ${elf})
+  endforeach()
+endforeach()

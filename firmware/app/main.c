@@ -1,0 +1,319 @@
+/* Open AX-12 firmware: the main loop that ties the protocol core (firmware/core) to the
+ * board (firmware/hal). SPDX-License-Identifier: MIT (the firmware; the simavr host that
+ * runs it is GPL-3.0-or-later, see docs/firmware.md).
+ *
+ * Execution contexts (docs/firmware.md): the ISRs in hal/ move bytes and start replies;
+ * everything else runs here, in one loop that never blocks:
+ *   1. reply bookkeeping: send a reply that waited for its EEPROM write; after a reply's
+ *      last byte, apply what follows it (factory reset, new baud);
+ *   2. receive: feed ring bytes to the packet finder; handle each packet; when only the
+ *      checksum byte is missing, prepare the reply and arm it (fast reply path, below);
+ *   3. control tick (1 kHz): ADC, publish Present Position / Voltage / Temperature,
+ *      control_tick(), LED, finder gap timeout;
+ *   4. EEPROM: one byte of a pending image write when the EEPROM is ready;
+ *   5. idle sleep until the next interrupt.
+ *
+ * Fast reply path: dxl_servo_prepare() is pure, so the reply to a packet is computed while
+ * its checksum byte is still on the wire and handed to the UART with the checksum that
+ * would complete the packet (uart_reply_arm). The RX ISR starts it the moment that byte
+ * arrives; the main loop then sees the packet complete and commits the prepared response.
+ * Replies whose packet changes the EEPROM are never armed: the packet is committed, the
+ * image written, and only then the reply sent, so the reply proves the value is stored.
+ */
+#include <avr/interrupt.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "adc.h"
+#include "board.h"
+#include "control.h"
+#include "dxl_packet.h"
+#include "dxl_protocol.h"
+#include "dxl_servo.h"
+#include "dxl_table.h"
+#include "motor.h"
+#include "nvm.h"
+#include "timebase.h"
+#include "uart.h"
+
+/* Power-up blink (POLICY.md "Power-up"): on-off twice, BOOT_BLINK_MS each phase. */
+#define BOOT_BLINK_MS 100u
+#define BOOT_BLINK_PHASES 4u
+
+/* An armed reply is withdrawn this long after the packet's last-but-one byte, before the
+ * finder's own gap timeout (DXL_PACKET_GAP_TIMEOUT_MS) could drop the packet under it. */
+#define ARM_TIMEOUT_MS (DXL_PACKET_GAP_TIMEOUT_MS - 2u)
+
+/* ADC conversions, one per control tick: the pot every other tick. */
+static const DXL_FLASH uint8_t adc_sequence[] = {ADC_CH_POT, ADC_CH_SUPPLY, ADC_CH_POT, ADC_CH_TEMP};
+#define ADC_SEQUENCE_LENGTH (sizeof adc_sequence / sizeof adc_sequence[0])
+
+static dxl_finder_t finder;
+static dxl_servo_t servo;
+static dxl_response_t response; /* the reply being prepared, armed or sent */
+
+/* Link state of the main loop; uart_reply_state() is the UART's. */
+static bool armed;               /* response is the reply of the packet whose checksum byte is
+                                    next: armed in the UART, or already started by it */
+static uint16_t armed_ms;
+static bool finder_dirty;        /* bytes pushed or a result taken since dxl_finder_next() last
+                                    said DXL_FIND_NONE */
+static bool reply_waits_for_nvm; /* response is loaded; send it once the image is written */
+static uint8_t after_reply;      /* DXL_AFTER_* to apply once the reply has left */
+
+static uint8_t adc_slot;
+static uint8_t boot_blink_ms_left = BOOT_BLINK_MS;
+static uint8_t boot_blink_phase;
+
+static void apply_after(uint8_t after) {
+  if (after & DXL_AFTER_FACTORY_RESET) {
+    dxl_servo_factory_reset(&servo);
+  }
+  if (after & DXL_AFTER_APPLY_BAUD) {
+    uart_set_baud(servo.table[CT_ADDR_BAUD_RATE]);
+  }
+  /* DXL_AFTER_PERSIST: done before the reply (send_response). */
+}
+
+/* After commit (or reject): persist, then reply or act at once. */
+static void send_response(void) {
+  const uint8_t after = response.after;
+  if (after & DXL_AFTER_PERSIST) {
+    if (after & DXL_AFTER_FACTORY_RESET) {
+      /* The table is reset only after the reply (old ID in it); the image already holds
+       * the defaults, so the reply still proves them stored. */
+      uint8_t factory_area[CT_EEPROM_SIZE];
+      ct_load_factory_eeprom(factory_area);
+      nvm_persist(factory_area);
+    } else {
+      nvm_persist(servo.table);
+    }
+  }
+  if (response.length == 0) {
+    apply_after(after);
+    return;
+  }
+  after_reply = after;
+  uart_reply_load(response.bytes, response.length, response.delay_us);
+  if (after & DXL_AFTER_PERSIST) {
+    reply_waits_for_nvm = true;
+  } else {
+    uart_reply_start();
+  }
+}
+
+static void on_packet(const dxl_packet_t *packet) {
+  dxl_servo_prepare(&servo, packet, &response);
+  if (response.length != 0 && response.after == 0) {
+    /* The reply bytes are final once prepared: start it before committing. */
+    uart_reply_load(response.bytes, response.length, response.delay_us);
+    uart_reply_start();
+    dxl_servo_commit(&servo, &response);
+    after_reply = 0;
+    return;
+  }
+  dxl_servo_commit(&servo, &response);
+  send_response();
+}
+
+static void on_bad_checksum(const dxl_packet_t *packet) {
+  dxl_servo_reject_checksum(&servo, packet, &response);
+  send_response();
+}
+
+/* When only the checksum byte is missing, prepare the reply and arm it in the UART. */
+static void try_arm(void) {
+  dxl_packet_t packet;
+  uint8_t checksum;
+  if (!dxl_finder_awaiting_checksum(&finder, &packet, &checksum)) {
+    return;
+  }
+  dxl_servo_prepare(&servo, &packet, &response);
+  if (response.length == 0 || response.after != 0) {
+    return; /* silent, or EEPROM / baud / reset: handled when the packet completes */
+  }
+  uart_reply_load(response.bytes, response.length, response.delay_us);
+  armed = uart_reply_arm(checksum) != UART_REPLY_IDLE;
+  armed_ms = timebase_ms();
+}
+
+static bool link_free(void) { return uart_reply_state() == UART_REPLY_IDLE && !reply_waits_for_nvm; }
+
+/* Moves every byte waiting in the ring into the finder (as far as it has room), stamped with
+ * the current millisecond. Batching keeps up with 1 Mbps, which one finder pass per byte
+ * does not; the finder examines the batch in one dxl_finder_next() pass. */
+static bool push_waiting_bytes(void) {
+  const uint16_t now_ms = timebase_ms();
+  bool pushed = false;
+  uint8_t byte;
+  while (finder.fill < DXL_PACKET_MAX_BYTES && uart_rx_pop(&byte)) {
+    dxl_finder_push(&finder, byte, now_ms);
+    pushed = true;
+  }
+  return pushed;
+}
+
+static void service_rx(void) {
+  dxl_packet_t packet;
+  uint8_t byte;
+  for (;;) {
+    if (armed) {
+      if (!uart_rx_pop(&byte)) {
+        return; /* the checksum byte is still on the wire */
+      }
+      dxl_finder_push(&finder, byte, timebase_ms());
+      armed = false;
+      finder_dirty = true;
+      if (uart_reply_state() != UART_REPLY_IDLE) {
+        /* The UART matched the checksum and started the prepared reply: the finder
+         * completes the same packet (DXL_FIND_PACKET); commit what was prepared. */
+        (void)dxl_finder_next(&finder, &packet);
+        dxl_servo_commit(&servo, &response);
+        after_reply = 0;
+        finder_dirty = false; /* the checksum was the last byte pushed */
+      }
+      continue; /* a mismatch is handled below like any byte */
+    }
+    if (!link_free()) {
+      return; /* one reply at a time: the rest waits in the ring */
+    }
+    if (finder_dirty) {
+      const dxl_find_result_t found = dxl_finder_next(&finder, &packet);
+      if (found == DXL_FIND_PACKET) {
+        on_packet(&packet);
+      } else if (found == DXL_FIND_BAD_CHECKSUM) {
+        on_bad_checksum(&packet);
+      } else {
+        finder_dirty = false;
+        try_arm();
+        if (!armed) {
+          return; /* back to the main loop (watchdog, tick) between batches */
+        }
+      }
+    } else if (push_waiting_bytes()) {
+      finder_dirty = true;
+    } else {
+      return;
+    }
+  }
+}
+
+static void service_reply(void) {
+  if (reply_waits_for_nvm) {
+    if (!nvm_busy()) {
+      reply_waits_for_nvm = false;
+      uart_reply_start_now(); /* the delay is long past: the write took milliseconds */
+    }
+    return;
+  }
+  if (!armed && uart_reply_state() == UART_REPLY_DONE) {
+    uart_reply_finish();
+    const uint8_t after = after_reply;
+    after_reply = 0;
+    apply_after(after);
+  }
+}
+
+static void publish_adc(uint8_t channel, uint16_t reading) {
+  switch (channel) {
+  case ADC_CH_POT:
+    ct_set_u16(servo.table, CT_ADDR_PRESENT_POSITION, reading);
+    break;
+  case ADC_CH_SUPPLY:
+    servo.table[CT_ADDR_PRESENT_VOLTAGE] = adc_supply_decivolts(reading);
+    break;
+  default:
+    servo.table[CT_ADDR_PRESENT_TEMPERATURE] = adc_temperature_c(reading);
+    break;
+  }
+}
+
+static void update_led(void) {
+  if (boot_blink_phase < BOOT_BLINK_PHASES) {
+    board_led_set((boot_blink_phase & 1u) == 0);
+    if (--boot_blink_ms_left == 0) {
+      boot_blink_ms_left = BOOT_BLINK_MS;
+      boot_blink_phase++;
+    }
+    return;
+  }
+  board_led_set(servo.table[CT_ADDR_LED] != 0);
+}
+
+static void service_tick(void) {
+  if (timebase_poll() == 0) {
+    return;
+  }
+  const uint16_t now_ms = timebase_ms();
+  if (armed && (uint16_t)(now_ms - armed_ms) >= ARM_TIMEOUT_MS && uart_reply_disarm()) {
+    armed = false;
+  }
+  if (!armed) {
+    dxl_finder_poll(&finder, now_ms);
+  }
+  if (!adc_busy()) {
+    publish_adc(adc_sequence[adc_slot], adc_result());
+    adc_slot = (uint8_t)((adc_slot + 1u) % ADC_SEQUENCE_LENGTH);
+    adc_start(adc_sequence[adc_slot]);
+  }
+  control_tick(&servo);
+  update_led();
+}
+
+/* Work that no ISR flags: an EEPROM byte to write, a reply whose EEPROM write has finished.
+ * If one of these becomes true after this test, EE_READY is already pending and ends the
+ * sleep at once. */
+static bool work_without_interrupt(void) { return nvm_work_ready() || (reply_waits_for_nvm && !nvm_busy()); }
+
+/* Work the ISRs flag (tick, received byte, reply sent); tested with interrupts disabled, so the interrupts stay off
+ * only for these few cycles before SLEEP (they delay the RX ISR, whose tick times replies). */
+static inline bool work_from_interrupt(void) {
+  if (timebase_tick_due()) {
+    return true;
+  }
+  const uint8_t state = uart_reply_state();
+  if (armed) {
+    return uart_rx_available();
+  }
+  return state == UART_REPLY_DONE || (state == UART_REPLY_IDLE && !reply_waits_for_nvm && uart_rx_available());
+}
+
+static void power_up(void) {
+  board_init();
+  motor_init();
+  timebase_init();
+  adc_init();
+  /* Present values first: Goal Position = Present Position (POLICY.md "Power-up"). */
+  const uint16_t position = adc_read_blocking(ADC_CH_POT);
+  const uint8_t *const stored = nvm_load();
+  dxl_servo_power_up(&servo, stored, position);
+  if (stored == NULL) {
+    nvm_persist(servo.table); /* blank or corrupt image: factory defaults, written back */
+  }
+  publish_adc(ADC_CH_SUPPLY, adc_read_blocking(ADC_CH_SUPPLY));
+  publish_adc(ADC_CH_TEMP, adc_read_blocking(ADC_CH_TEMP));
+  adc_start(adc_sequence[0]);
+  dxl_finder_init(&finder);
+  uart_init(servo.table[CT_ADDR_BAUD_RATE]);
+  board_watchdog_start();
+}
+
+int main(void) {
+  power_up();
+  sei();
+  for (;;) {
+    board_watchdog_kick();
+    service_reply();
+    service_rx();
+    service_tick();
+    nvm_service();
+    if (!work_without_interrupt()) {
+      cli();
+      if (!work_from_interrupt()) {
+        board_sleep_enable_interrupts();
+      }
+      sei();
+    }
+  }
+}

@@ -1,0 +1,41 @@
+/* ADC. See adc.h. */
+#include "adc.h"
+
+#include <avr/io.h>
+
+#define ADMUX_AVCC _BV(REFS0)
+#define ADCSRA_ON (_BV(ADEN) | _BV(ADPS2) | _BV(ADPS1) | _BV(ADPS0)) /* clk/128 */
+
+void adc_init(void) {
+  DIDR0 = _BV(ADC0D) | _BV(ADC1D) | _BV(ADC2D); /* no digital input buffers on analog pins */
+  ADMUX = ADMUX_AVCC;
+  ADCSRA = ADCSRA_ON;
+}
+
+void adc_start(uint8_t channel) {
+  ADMUX = (uint8_t)(ADMUX_AVCC | channel);
+  ADCSRA = (uint8_t)(ADCSRA_ON | _BV(ADSC));
+}
+
+bool adc_busy(void) { return (ADCSRA & _BV(ADSC)) != 0; }
+
+uint16_t adc_result(void) { return ADC; }
+
+uint16_t adc_read_blocking(uint8_t channel) {
+  adc_start(channel);
+  while (adc_busy()) {
+  }
+  return adc_result();
+}
+
+uint8_t adc_supply_decivolts(uint16_t reading) {
+  return (uint8_t)(((uint32_t)reading * 250u + 512u) >> 10); /* <= 250 */
+}
+
+uint8_t adc_temperature_c(uint16_t reading) {
+  const uint16_t half_up = (uint16_t)(((uint32_t)reading * 125u + 128u) >> 8); /* 0..500 */
+  if (half_up <= 50u) {
+    return 0;
+  }
+  return half_up - 50u > UINT8_MAX ? UINT8_MAX : (uint8_t)(half_up - 50u);
+}

@@ -1,0 +1,37 @@
+/* Board glue. See board.h. */
+#include "board.h"
+
+#include <avr/interrupt.h>
+#include <avr/io.h>
+#include <avr/sleep.h>
+#include <avr/wdt.h>
+
+#define LED_BIT PB5
+
+/* Filled in .init3 by startup.S (MCUSR = 0 clears WDRF, then the watchdog is switched off). */
+uint8_t board_reset_flags __attribute__((section(".noinit")));
+
+void board_init(void) {
+  PORTB &= (uint8_t)~_BV(LED_BIT);
+  DDRB |= _BV(LED_BIT);
+  set_sleep_mode(SLEEP_MODE_IDLE);
+}
+
+void board_led_set(bool on) {
+  if (on) {
+    PORTB |= _BV(LED_BIT);
+  } else {
+    PORTB &= (uint8_t)~_BV(LED_BIT);
+  }
+}
+
+void board_watchdog_start(void) { wdt_enable(WDTO_250MS); }
+
+void board_watchdog_kick(void) { wdt_reset(); }
+
+void board_sleep_enable_interrupts(void) {
+  sleep_enable();
+  sei();
+  sleep_cpu();
+  sleep_disable();
+}

@@ -1,0 +1,42 @@
+/* EEPROM image persistence. See nvm.h. */
+#include "nvm.h"
+
+#include <avr/eeprom.h>
+#include <avr/io.h>
+#include <stddef.h>
+
+#include "dxl_image.h"
+
+#define IMAGE_EEPROM_ADDR 0u
+
+static uint8_t image[DXL_IMAGE_BYTES];
+static uint8_t next_offset = DXL_IMAGE_BYTES; /* next offset to compare; BYTES = all done */
+
+/* EE_READY (wakeup_isr.S) only clears EERIE: while enabled it is raised for as long as the
+ * EEPROM is ready; its job is to wake the main loop after a write. */
+
+const uint8_t *nvm_load(void) {
+  eeprom_read_block(image, (const void *)IMAGE_EEPROM_ADDR, DXL_IMAGE_BYTES);
+  return dxl_image_is_valid(image) ? &image[DXL_IMAGE_OFS_TABLE] : NULL;
+}
+
+void nvm_persist(const uint8_t *eeprom_area) {
+  dxl_image_build(image, eeprom_area);
+  next_offset = 0;
+}
+
+bool nvm_busy(void) { return next_offset < DXL_IMAGE_BYTES || !eeprom_is_ready(); }
+
+bool nvm_work_ready(void) { return next_offset < DXL_IMAGE_BYTES && eeprom_is_ready(); }
+
+void nvm_service(void) {
+  while (nvm_work_ready()) {
+    const uint8_t offset = next_offset++;
+    uint8_t *const addr = (uint8_t *)(uintptr_t)(IMAGE_EEPROM_ADDR + offset);
+    if (eeprom_read_byte(addr) != image[offset]) {
+      eeprom_write_byte(addr, image[offset]);
+      EECR |= _BV(EERIE);
+      return;
+    }
+  }
+}

@@ -1,0 +1,25 @@
+/* Timer1 timebase. See timebase.h; the TIMER1_COMPB ISR is in tiny_isr.S. */
+#include "timebase.h"
+
+#include <avr/io.h>
+
+volatile uint16_t timebase_ms_count; /* TIMER1_COMPB ISR */
+static uint16_t ms_polled;           /* main loop: the count timebase_poll() last saw */
+
+void timebase_init(void) {
+  TCCR1A = 0;         /* normal mode, compare outputs disconnected */
+  TCCR1B = _BV(CS11); /* clk/8 */
+  TCNT1 = 0;
+  OCR1B = TIMEBASE_TICK_PERIOD_TICKS;
+  TIFR1 = _BV(OCF1A) | _BV(OCF1B) | _BV(TOV1);
+  TIMSK1 = _BV(OCIE1B);
+}
+
+uint8_t timebase_poll(void) {
+  const uint16_t now = timebase_ms();
+  const uint16_t elapsed = (uint16_t)(now - ms_polled);
+  ms_polled = now;
+  return elapsed > UINT8_MAX ? UINT8_MAX : (uint8_t)elapsed;
+}
+
+bool timebase_tick_due(void) { return timebase_ms_count != ms_polled; }

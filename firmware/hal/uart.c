@@ -1,0 +1,173 @@
+/* USART0 half-duplex bus: set-up, reply scheduling and transmission. The RX ISR is in
+ * uart_rx.S. See uart.h. */
+#include "uart.h"
+
+#include <avr/interrupt.h>
+#include <util/atomic.h>
+
+#include "timebase.h"
+
+#if (UART_RX_RING_BYTES & UART_RX_RING_MASK) != 0 || UART_RX_RING_BYTES > 128
+#error "UART_RX_RING_BYTES must be a power of two <= 128 (8-bit free-running indices)"
+#endif
+#if UART_COMPA_EARLY_TICKS > 63 || UART_SPIN_COMPENSATION_TICKS > 63
+#error "compensation must fit SBIW in uart_rx.S"
+#endif
+
+/* OCR1A must still lie ahead of TCNT1 when written: from the main loop (late start) by this
+ * much, else the main loop spins itself; the RX ISR writes it about 8 ticks after the tick
+ * it read, so armed delays need this much room past the early margin, else they spin in
+ * the RX ISR. */
+#define LATE_MIN_LEAD_TICKS 4
+#define ARMED_MIN_OFFSET_TICKS 10
+
+/* Receive ring (SPSC, see uart.h) and what the RX ISR records. */
+volatile uint8_t uart_rx_ring[UART_RX_RING_BYTES];
+volatile uint8_t uart_rx_head;
+volatile uint8_t uart_rx_tail;
+volatile uint16_t uart_rx_tick;       /* RX ISR: TCNT1 when it read the newest byte */
+volatile uint8_t uart_rx_dropped_count; /* RX ISR */
+volatile uint8_t uart_rx_line_error_count; /* RX ISR */
+
+/* Reply. The main loop writes these while the state is IDLE, then publishes them with the
+ * state change (inside ATOMIC_BLOCK, whose barriers order the stores); the ISRs read them
+ * only once the state says a reply is armed or under way. */
+volatile uint8_t uart_tx_state;
+volatile uint8_t uart_tx_checksum;    /* ARMED: the byte that completes the packet */
+volatile uint8_t uart_tx_mode;        /* UART_START_* */
+volatile uint16_t uart_tx_delay_ticks; /* Return Delay Time in Timer1 ticks */
+volatile uint8_t uart_tx_first;       /* bytes[0], so the start path is one LDS */
+volatile uint8_t uart_tx_next;        /* UDRE ISR: index of the next byte to write */
+volatile uint16_t uart_tx_start_tick; /* WAITING: TIMER1_COMPA spins until TCNT1 reaches it */
+static const uint8_t *tx_bytes;
+static uint8_t tx_length;
+
+void uart_set_baud(uint8_t baud_register) {
+  UBRR0H = 0;
+  UBRR0L = baud_register; /* written last: simavr latches the baud here */
+}
+
+void uart_init(uint8_t baud_register) {
+  PORTD &= (uint8_t)~_BV(UART_BUS_DIR_BIT);
+  DDRD |= _BV(UART_BUS_DIR_BIT);
+  UCSR0A = _BV(U2X0);
+  UCSR0C = _BV(UCSZ01) | _BV(UCSZ00); /* 8N1 */
+  uart_set_baud(baud_register);
+  UCSR0B = UART_UCSR0B_LISTEN;
+}
+
+/* Drives the bus and writes the first byte: the reply starts at the UDR0 write. UDRIE0 is
+ * enabled after that write (simavr raises UDRE at once if it is enabled while no byte is in
+ * flight, which would send the second byte without waiting). Interrupts off. */
+static inline __attribute__((always_inline)) void reply_send_first(void) {
+  PORTD |= _BV(UART_BUS_DIR_BIT);
+  UDR0 = uart_tx_first;
+  UCSR0B = UART_UCSR0B_TALK;
+  uart_tx_next = 1;
+  uart_tx_state = UART_REPLY_SENDING;
+}
+
+static inline __attribute__((always_inline)) void spin_until(uint16_t tick) {
+  while ((int16_t)(TCNT1 - tick) < 0) {
+  }
+}
+
+/* Starts the loaded reply relative to rx_tick, the TCNT1 value the RX ISR read for the
+ * packet's last byte, from the main loop: the moment may be close or already past.
+ * Interrupts off. */
+static void reply_start_late(uint16_t rx_tick) {
+  if (uart_tx_mode != UART_START_NOW) {
+    const uint16_t start = (uint16_t)(rx_tick + uart_tx_delay_ticks - UART_SPIN_COMPENSATION_TICKS);
+    const uint16_t ocr = (uint16_t)(start - UART_COMPA_EARLY_TICKS);
+    if ((int16_t)(ocr - TCNT1) > LATE_MIN_LEAD_TICKS) {
+      uart_tx_start_tick = start;
+      OCR1A = ocr;
+      TIFR1 = _BV(OCF1A);
+      TIMSK1 = _BV(OCIE1A) | _BV(OCIE1B);
+      uart_tx_state = UART_REPLY_WAITING;
+      return;
+    }
+    spin_until(start);
+  }
+  reply_send_first();
+}
+
+/* One byte per UDRE; with the last byte, hands over to TX-complete. TXC0 is cleared there
+ * because simavr raises it after every byte (silicon: only once the shifter runs empty). */
+ISR(USART_UDRE_vect) {
+  const uint8_t next = uart_tx_next;
+  UDR0 = tx_bytes[next];
+  if ((uint8_t)(next + 1u) == tx_length) {
+    UCSR0A = _BV(U2X0) | _BV(TXC0);
+    UCSR0B = UART_UCSR0B_LAST_BYTE;
+  }
+  uart_tx_next = (uint8_t)(next + 1u);
+}
+
+/* The last stop bit has left: release the bus, listen again. */
+ISR(USART_TX_vect) {
+  PORTD &= (uint8_t)~_BV(UART_BUS_DIR_BIT);
+  UCSR0B = UART_UCSR0B_LISTEN;
+  uart_tx_state = UART_REPLY_DONE;
+}
+
+/* UART_COMPA_EARLY_TICKS before the reply: spin to the exact tick, start it. */
+ISR(TIMER1_COMPA_vect) {
+  spin_until(uart_tx_start_tick);
+  reply_send_first();
+  TIMSK1 = _BV(OCIE1B);
+}
+
+void uart_reply_load(const uint8_t *bytes, uint8_t length, uint16_t delay_us) {
+  tx_bytes = bytes;
+  tx_length = length;
+  uart_tx_first = bytes[0];
+  const uint16_t delay_ticks = (uint16_t)(delay_us * TIMEBASE_TICKS_PER_US);
+  uart_tx_delay_ticks = delay_ticks;
+  if (delay_ticks <= UART_NOW_MAX_DELAY_TICKS) {
+    uart_tx_mode = UART_START_NOW;
+  } else if (delay_ticks >= UART_SPIN_COMPENSATION_TICKS + UART_COMPA_EARLY_TICKS + ARMED_MIN_OFFSET_TICKS) {
+    uart_tx_mode = UART_START_TIMER;
+  } else {
+    uart_tx_mode = UART_START_SPIN;
+  }
+}
+
+uint8_t uart_reply_arm(uint8_t expected_checksum) {
+  uint8_t state;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    const uint8_t tail = uart_rx_tail;
+    const uint8_t waiting = (uint8_t)(uart_rx_head - tail);
+    if (waiting == 0) {
+      uart_tx_checksum = expected_checksum;
+      uart_tx_state = UART_REPLY_ARMED;
+    } else if (uart_rx_ring[tail & UART_RX_RING_MASK] == expected_checksum) {
+      /* Already in: its tick is known only if it is the newest byte. */
+      reply_start_late(waiting == 1 ? uart_rx_tick : TCNT1);
+    }
+    state = uart_tx_state;
+  }
+  return state;
+}
+
+bool uart_reply_disarm(void) {
+  bool disarmed = false;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    if (uart_tx_state == UART_REPLY_ARMED) {
+      uart_tx_state = UART_REPLY_IDLE;
+      disarmed = true;
+    }
+  }
+  return disarmed;
+}
+
+void uart_reply_start(void) {
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    /* The packet's last byte is the newest unless more came since. */
+    reply_start_late(uart_rx_head == uart_rx_tail ? uart_rx_tick : TCNT1);
+  }
+}
+
+void uart_reply_start_now(void) {
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { reply_send_first(); }
+}

@@ -1,0 +1,144 @@
+/* Half-duplex Dynamixel bus on USART0 (docs/hardware.md "UART", "Pins").
+ *
+ * Receive: the RX ISR (uart_rx.S) moves each byte into a single-producer single-consumer
+ * ring and notes the Timer1 tick at which it read the byte. The ISR is the only writer of
+ * uart_rx_head, the main loop (uart_rx_pop) the only writer of uart_rx_tail; both are 8-bit
+ * and free-running (the ring index is the low bits), so each is read and written in one
+ * instruction and never torn; the ring is full when head - tail == UART_RX_RING_BYTES.
+ *
+ * Transmit: one status packet at a time, from a buffer the caller keeps unchanged until
+ * uart_reply_state() reports UART_REPLY_DONE. PD2 (bus direction) is high and the receiver
+ * is off (RXEN0 = 0: no own echo) from the first byte until TX-complete of the last byte.
+ *
+ * Reply timing (POLICY.md "Replies"): the first byte is written to UDR0 2 us x Return Delay
+ * Time after the RX interrupt of the instruction's last byte. Three ways to start it:
+ *   - armed: while the checksum byte is still on the wire the main loop arms the reply with
+ *     the checksum that completes the packet (uart_reply_arm); the RX ISR starts it the
+ *     moment that byte arrives and matches (RDT 0: writes UDR0 itself; short delays: spins
+ *     on TCNT1; longer: sets OCR1A and TIMER1_COMPA starts it);
+ *   - late: after the packet was handled, from the tick of its last byte if that moment is
+ *     still ahead, at once otherwise (uart_reply_start);
+ *   - now: after an EEPROM write, which takes milliseconds (uart_reply_start_now).
+ *
+ * Execution contexts: USART_RX (uart_rx.S), USART_UDRE, USART_TX and TIMER1_COMPA (uart.c)
+ * ISRs; every function here is for the main loop only.
+ * Budget: at 1 Mbps a byte arrives every 160 cycles (docs/firmware.md has the measured ISR
+ * costs).
+ *
+ * This header is also included by uart_rx.S: the constants the ISR shares are plain
+ * #defines, the C declarations sit under !__ASSEMBLER__.
+ */
+#ifndef HAL_UART_H
+#define HAL_UART_H
+
+#include <avr/io.h>
+
+/* Ring size: a power of two, <= 128. At 1 Mbps the main loop pushes a byte into the packet
+ * finder in about 150 cycles and the RX ISR takes 69 of every 160: a 259-byte packet sent
+ * back to back leaves up to about 70 bytes waiting (docs/firmware.md "Receive throughput"). */
+#define UART_RX_RING_BYTES 128
+#define UART_RX_RING_MASK (UART_RX_RING_BYTES - 1)
+
+/* Reply states. Transitions: IDLE -> ARMED (main) -> IDLE (RX ISR: checksum differs;
+ * main: disarm) or -> WAITING / SENDING (RX ISR); IDLE -> WAITING / SENDING (main: start);
+ * WAITING -> SENDING (COMPA ISR); SENDING -> DONE (TX ISR, bus released); DONE -> IDLE
+ * (main, uart_reply_finish). */
+#define UART_REPLY_IDLE 0
+#define UART_REPLY_ARMED 1
+#define UART_REPLY_WAITING 2 /* OCR1A counts down the Return Delay Time */
+#define UART_REPLY_SENDING 3
+#define UART_REPLY_DONE 4
+
+/* How an armed reply starts (uart_tx_mode), chosen by uart_reply_load from the delay. */
+#define UART_START_NOW 0   /* Return Delay Time 0: the RX ISR writes UDR0 at once */
+#define UART_START_SPIN 1  /* too close for OCR1A: the RX ISR spins on TCNT1 */
+#define UART_START_TIMER 2 /* OCR1A a little early; TIMER1_COMPA spins, writes UDR0 */
+
+/* UCSR0B in the three phases of the link. TXEN0 stays on: the idle TXD line is high. */
+#define UART_UCSR0B_LISTEN (_BV(RXCIE0) | _BV(RXEN0) | _BV(TXEN0))
+#define UART_UCSR0B_TALK (_BV(TXEN0) | _BV(UDRIE0))        /* receiver off: no own echo */
+#define UART_UCSR0B_LAST_BYTE (_BV(TXEN0) | _BV(TXCIE0))   /* wait for the last stop bit */
+#define UART_BUS_DIR_BIT PD2 /* PORTD: 1 = this servo drives the bus */
+
+/* Reply timing, in Timer1 ticks (8 cycles). Every delayed start ends in a spin on TCNT1
+ * that leaves at start = rx tick + delay - UART_SPIN_COMPENSATION_TICKS, calibrated in
+ * simavr so the UDR0 write lands within -1..+7 cycles of the target (docs/firmware.md
+ * "Reply timing"): it covers the RX ISR reading TCNT1 7 cycles after its interrupt and the
+ * UDR0 write 9 cycles after the spin sees its tick. TIMER1_COMPA is set
+ * UART_COMPA_EARLY_TICKS before start, so its entry and a TIMER1_COMPB ISR (45 cycles) just
+ * before it do not delay the reply. */
+#define UART_SPIN_COMPENSATION_TICKS 3
+#define UART_COMPA_EARLY_TICKS 12
+/* Up to this delay the NOW path's own latency (UDR0 written 47 cycles after the RX interrupt
+ * in simavr, 52 on silicon) is nearer the target than a spin would be (about 63 at the
+ * earliest): Return Delay Time 1 (32 cycles) starts as NOW. */
+#define UART_NOW_MAX_DELAY_TICKS 7
+
+#ifndef __ASSEMBLER__
+
+#include <stdbool.h>
+#include <stdint.h>
+
+/* USART0 8N1, U2X, receiver on, bus released. baud_register: the Baud Rate item (address 4),
+ * which is UBRR0 itself at 16 MHz with U2X. Needs timebase_init() (Timer1) before use. */
+void uart_init(uint8_t baud_register);
+
+/* Reprograms UBRR0 (H then L). Only while the reply state is IDLE. */
+void uart_set_baud(uint8_t baud_register);
+
+/* Shared with the ISRs; declared here only so the accessors below inline. */
+extern volatile uint8_t uart_rx_ring[UART_RX_RING_BYTES];
+extern volatile uint8_t uart_rx_head; /* RX ISR writes */
+extern volatile uint8_t uart_rx_tail; /* main loop writes */
+extern volatile uint8_t uart_tx_state; /* UART_REPLY_* */
+/* Bytes lost because the ring was full, and bytes the USART flagged (frame error or data
+ * overrun), since power-up; both saturate at 255. Nothing reports them yet: a host reads
+ * them from RAM by symbol. */
+extern volatile uint8_t uart_rx_dropped_count;
+extern volatile uint8_t uart_rx_line_error_count;
+
+/* True when the ring holds a byte. */
+static inline bool uart_rx_available(void) { return uart_rx_head != uart_rx_tail; }
+
+/* Takes the oldest received byte; false when the ring is empty. */
+static inline bool uart_rx_pop(uint8_t *byte) {
+  const uint8_t tail = uart_rx_tail;
+  if (uart_rx_head == tail) {
+    return false;
+  }
+  *byte = uart_rx_ring[tail & UART_RX_RING_MASK];
+  uart_rx_tail = (uint8_t)(tail + 1u);
+  return true;
+}
+
+static inline uint8_t uart_reply_state(void) { return uart_tx_state; }
+
+/* Sets the status packet to send next (bytes[0..length), length >= 2) and its delay after
+ * the RX interrupt of the instruction's last byte (dxl_response_t.delay_us: 2 us x Return
+ * Delay Time, 0..508). State must be IDLE. The bytes stay the caller's; keep them unchanged
+ * until the state is DONE. */
+void uart_reply_load(const uint8_t *bytes, uint8_t length, uint16_t delay_us);
+
+/* Arms the loaded reply for the next received byte, the checksum expected_checksum of the
+ * packet whose other bytes the main loop has all popped. Returns the new state:
+ *   ARMED            the byte is not in yet; the RX ISR will start the reply if it matches;
+ *   WAITING/SENDING  the byte was already in the ring and matched: started from its tick;
+ *   IDLE             the byte was already in and differs: nothing started.
+ * The byte itself still goes through the ring as usual. */
+uint8_t uart_reply_arm(uint8_t expected_checksum);
+
+/* ARMED -> IDLE. Returns false when the RX ISR had already started the reply. */
+bool uart_reply_disarm(void);
+
+/* Starts the loaded reply after a packet the main loop has just completed (its last byte
+ * popped): 2 us x RDT after that byte's RX interrupt if that is still ahead, else now. */
+void uart_reply_start(void);
+
+/* Starts the loaded reply now, whatever the Return Delay Time. */
+void uart_reply_start_now(void);
+
+/* DONE -> IDLE, once the main loop has acted on what follows the reply. */
+static inline void uart_reply_finish(void) { uart_tx_state = UART_REPLY_IDLE; }
+
+#endif /* __ASSEMBLER__ */
+#endif
