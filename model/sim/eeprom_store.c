@@ -3,7 +3,6 @@
 
 #include <errno.h>
 #include <fcntl.h>
-#include <libgen.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -124,7 +123,11 @@ int eeprom_store_save(const char *path, const uint8_t *eeprom, size_t size, char
     snprintf(err, err_len, "cannot write %s: %s", tmp, strerror(errno));
     return -1;
   }
-  if (write_all(fd, eeprom, size) != 0 || fsync(fd) != 0) {
+  /* No fsync: write + rename is atomic against the emulator being killed (the kernel keeps
+   * what was written), which is the durability a state file needs; fsync, which guards only
+   * against the host machine itself crashing, stalled real-time pacing by up to 130 ms per
+   * EEPROM byte on a disk. */
+  if (write_all(fd, eeprom, size) != 0) {
     snprintf(err, err_len, "cannot write %s: %s", tmp, strerror(errno));
     close(fd);
     unlink(tmp);
@@ -135,14 +138,6 @@ int eeprom_store_save(const char *path, const uint8_t *eeprom, size_t size, char
     snprintf(err, err_len, "cannot replace %s: %s", path, strerror(errno));
     unlink(tmp);
     return -1;
-  }
-  /* Make the rename itself durable. */
-  char dir_buf[4096];
-  snprintf(dir_buf, sizeof(dir_buf), "%s", path);
-  const int dfd = open(dirname(dir_buf), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dfd >= 0) {
-    (void)fsync(dfd);
-    close(dfd);
   }
   return 0;
 }
