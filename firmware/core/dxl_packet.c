@@ -132,10 +132,7 @@ bool dxl_finder_awaiting_checksum(const dxl_finder_t *finder, dxl_packet_t *pack
       f->examined + 1u != candidate_total_bytes(f)) {
     return false;
   }
-  packet->id = f->bytes[OFS_ID];
-  packet->instruction = f->bytes[OFS_INSTRUCTION];
-  packet->param_count = (uint8_t)(f->bytes[OFS_LENGTH] - DXL_PACKET_MIN_LENGTH);
-  packet->params = &f->bytes[OFS_PARAMS];
+  describe(f, packet); /* its checksum is the byte beyond the examined ones: set below */
   *expected_checksum = (uint8_t)~f->sum;
   packet->checksum = *expected_checksum;
   return true;

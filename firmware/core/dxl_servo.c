@@ -1,46 +1,52 @@
 #include "dxl_servo.h"
 
+#include <stddef.h>
 #include <string.h>
 
 #include "dxl_protocol.h"
 
-/* The reply rules in one table (POLICY.md "Replies", "Instructions and their errors").
- * min_params/max_params: parameter counts that fit the instruction (else Instruction Error).
- * min_status_level: the Status Return Level from which a unicast packet is answered.
- * Broadcast packets are answered only when answers_broadcast is set. An instruction not in
- * the table is an Instruction Error, answered from level 2. */
-typedef struct {
-  uint8_t instruction;
-  uint8_t min_params;
-  uint8_t max_params;
-  uint8_t min_status_level;
-  uint8_t answers_broadcast;
-} instruction_rule_t;
-
-#define ANY_PARAMS 0xFFu
+/* The reply rules (POLICY.md "Replies", "Instructions and their errors"), as two switches
+ * (cheaper on the AVR than a table search on every packet):
+ *   params_fit()         parameter counts that fit the instruction (else Instruction Error);
+ *   min_status_level()   the Status Return Level from which a unicast packet is answered.
+ * Broadcast packets are answered only for PING in the AX-12 profile. An instruction not
+ * listed is an Instruction Error, answered from level 2. */
 #define STATUS_LEVEL_ALL 2u
 #define BROADCAST_PING_ANSWERED (DXL_PROFILE == DXL_PROFILE_AX12)
 
-static const DXL_FLASH instruction_rule_t instruction_rules[] = {
-    {DXL_INST_PING, 0, 0, 0, BROADCAST_PING_ANSWERED},
-    {DXL_INST_READ, 2, 2, 1, 0},
-    {DXL_INST_WRITE, 2, ANY_PARAMS, STATUS_LEVEL_ALL, 0},
-    {DXL_INST_REG_WRITE, 2, ANY_PARAMS, STATUS_LEVEL_ALL, 0},
-    {DXL_INST_ACTION, 0, 0, STATUS_LEVEL_ALL, 0},
-    {DXL_INST_RESET, 0, 0, STATUS_LEVEL_ALL, 0},
-    {DXL_INST_SYNC_WRITE, 2, ANY_PARAMS, STATUS_LEVEL_ALL, 0},
-};
-#define INSTRUCTION_RULE_COUNT (sizeof instruction_rules / sizeof instruction_rules[0])
-
-static const instruction_rule_t unknown_instruction_rule = {0, 0, 0, STATUS_LEVEL_ALL, 0};
-
-static instruction_rule_t rule_for(uint8_t instruction) {
-  for (uint8_t i = 0; i < INSTRUCTION_RULE_COUNT; i++) {
-    if (instruction_rules[i].instruction == instruction) {
-      return instruction_rules[i];
-    }
+static bool params_fit(uint8_t instruction, uint8_t param_count) {
+  switch (instruction) {
+  case DXL_INST_PING:
+  case DXL_INST_ACTION:
+  case DXL_INST_RESET:
+    return param_count == 0;
+  case DXL_INST_READ:
+    return param_count == 2;
+  case DXL_INST_WRITE:
+  case DXL_INST_REG_WRITE:
+  case DXL_INST_SYNC_WRITE:
+    return param_count >= 2;
+  default:
+    return false;
   }
-  return unknown_instruction_rule;
+}
+
+static uint8_t min_status_level(uint8_t instruction) {
+  switch (instruction) {
+  case DXL_INST_PING:
+    return 0;
+  case DXL_INST_READ:
+    return 1;
+  default:
+    return STATUS_LEVEL_ALL;
+  }
+}
+
+bool dxl_servo_answers(const dxl_servo_t *servo, uint8_t id, uint8_t instruction) {
+  if (id == DXL_ID_BROADCAST) {
+    return BROADCAST_PING_ANSWERED && instruction == DXL_INST_PING;
+  }
+  return id == servo->table[CT_ADDR_ID] && servo->table[CT_ADDR_STATUS_RETURN_LEVEL] >= min_status_level(instruction);
 }
 
 static bool window_overlaps(uint8_t start, uint8_t len, uint8_t first_addr, uint8_t last_addr) {
@@ -190,28 +196,28 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
 static void encode_status(const dxl_servo_t *s, uint8_t error, const uint8_t *params, uint8_t param_count,
                           dxl_response_t *r) {
   uint8_t *out = r->bytes;
+  const uint8_t id = s->table[CT_ADDR_ID];
+  const uint8_t length = (uint8_t)(param_count + 2u);
+  uint8_t sum = (uint8_t)(id + length + error);
   out[0] = DXL_HEADER_BYTE;
   out[1] = DXL_HEADER_BYTE;
-  out[2] = s->table[CT_ADDR_ID];
-  out[3] = (uint8_t)(param_count + 2u);
+  out[2] = id;
+  out[3] = length;
   out[4] = error;
-  if (param_count != 0) {
-    memcpy(&out[5], params, param_count);
+  out += 5;
+  for (uint8_t i = 0; i < param_count; i++) {
+    const uint8_t b = params[i];
+    sum = (uint8_t)(sum + b);
+    *out++ = b;
   }
-  out[5u + param_count] = dxl_checksum(&out[2], (uint16_t)(3u + param_count));
-  r->length = (uint8_t)(6u + param_count);
+  *out = (uint8_t)~sum;
+  r->length = (uint8_t)(length + 4u);
   r->delay_us = (uint16_t)(DXL_RETURN_DELAY_UNIT_US * s->table[CT_ADDR_RETURN_DELAY_TIME]);
 }
 
+/* Everything but the reply bytes: no reply, no action, no events. */
 static void response_clear(dxl_response_t *r) {
-  r->length = 0;
-  r->delay_us = 0;
-  r->after = 0;
-  r->action = DXL_ACTION_NONE;
-  r->window_start = 0;
-  r->window_len = 0;
-  r->window_data = NULL;
-  r->events = 0;
+  memset(&r->length, 0, sizeof *r - offsetof(dxl_response_t, length));
 }
 
 void dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response) {
@@ -222,38 +228,50 @@ void dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl
   if (!broadcast && packet->id != s->table[CT_ADDR_ID]) {
     return; /* another servo's packet, or a status packet on the bus */
   }
-  const instruction_rule_t rule = rule_for(packet->instruction);
-  const bool fits = rule.instruction == packet->instruction && packet->param_count >= rule.min_params &&
-                    (rule.max_params == ANY_PARAMS || packet->param_count <= rule.max_params);
+  const bool fits = params_fit(packet->instruction, packet->param_count);
   r->events = fits ? plan_instruction(s, packet, broadcast, r) : DXL_ERR_INSTRUCTION;
 
-  bool angle_limit;
+  /* The Angle Limit condition as it will be after this packet. */
+  uint8_t start = 0;
+  uint8_t len = 0;
+  const uint8_t *data = NULL;
   switch (r->action) {
   case DXL_ACTION_WRITE:
   case DXL_ACTION_RUN_REGISTERED:
-    r->after = after_flags_of_write(r->window_start, r->window_len);
-    angle_limit = angle_limit_after_write(s, r->window_start, r->window_data, r->window_len);
+    start = r->window_start;
+    len = r->window_len;
+    data = r->window_data;
+    r->after = after_flags_of_write(start, len);
     break;
   case DXL_ACTION_RESET:
     r->after = DXL_AFTER_FACTORY_RESET | DXL_AFTER_APPLY_BAUD | DXL_AFTER_PERSIST;
-    angle_limit = angle_limit_after_write(s, 0, NULL, 0);
     break;
   default:
-    angle_limit = angle_limit_after_write(s, 0, NULL, 0);
     break;
   }
 
-  const bool answer = broadcast ? rule.answers_broadcast != 0
-                                : s->table[CT_ADDR_STATUS_RETURN_LEVEL] >= rule.min_status_level;
-  if (!answer) {
+  if (!dxl_servo_answers(s, packet->id, packet->instruction)) {
     return;
   }
   uint8_t error = (uint8_t)(r->events | (s->held_conditions & (DXL_ERR_CONDITIONS & ~DXL_ERR_ANGLE_LIMIT)));
-  if (angle_limit) {
+  if (angle_limit_after_write(s, start, data, len)) {
     error |= DXL_ERR_ANGLE_LIMIT;
   }
   const bool returns_data = fits && packet->instruction == DXL_INST_READ && r->events == 0;
   encode_status(s, error, returns_data ? &s->table[r->window_start] : NULL, returns_data ? r->window_len : 0, r);
+}
+
+void dxl_servo_ping_reply(const dxl_servo_t *servo, dxl_ping_reply_t *reply) {
+  uint8_t *out = reply->bytes;
+  const uint8_t id = servo->table[CT_ADDR_ID];
+  const uint8_t error = dxl_servo_conditions(servo);
+  out[0] = DXL_HEADER_BYTE;
+  out[1] = DXL_HEADER_BYTE;
+  out[2] = id;
+  out[3] = DXL_PACKET_MIN_LENGTH;
+  out[4] = error;
+  out[5] = (uint8_t)~(id + DXL_PACKET_MIN_LENGTH + error);
+  reply->delay_us = (uint16_t)(DXL_RETURN_DELAY_UNIT_US * servo->table[CT_ADDR_RETURN_DELAY_TIME]);
 }
 
 /* The one write path into the table for instructions (WRITE, ACTION, SYNC_WRITE). The

@@ -80,6 +80,23 @@ void dxl_servo_power_up(dxl_servo_t *servo, const uint8_t *eeprom_area, uint16_t
  * position kept. Lock is not cleared by RESET (it refuses to run while locked). */
 void dxl_servo_factory_reset(dxl_servo_t *servo);
 
+/* Whether a packet with this ID and instruction, if its checksum is good, is answered (the
+ * reply dxl_servo_prepare() would build has length != 0). It depends only on the ID, the
+ * instruction, Status Return Level and the profile (not on the parameters), so the firmware
+ * can decide it as soon as the instruction byte is in. Tested to agree with
+ * dxl_servo_prepare() over every instruction code, parameter count, addressing and level. */
+bool dxl_servo_answers(const dxl_servo_t *servo, uint8_t id, uint8_t instruction);
+
+/* The status packet that answers a PING now (when it is answered at all: dxl_servo_answers),
+ * byte for byte what dxl_servo_prepare() builds for it. Small, so the firmware keeps one ready
+ * and can arm it before a PING's instruction byte has even been examined. */
+#define DXL_PING_REPLY_BYTES 6u
+typedef struct {
+  uint8_t bytes[DXL_PING_REPLY_BYTES];
+  uint16_t delay_us; /* as dxl_response_t.delay_us */
+} dxl_ping_reply_t;
+void dxl_servo_ping_reply(const dxl_servo_t *servo, dxl_ping_reply_t *reply);
+
 void dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response);
 void dxl_servo_commit(dxl_servo_t *servo, const dxl_response_t *response);
 void dxl_servo_handle(dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response);

@@ -15,6 +15,12 @@ const DXL_FLASH ct_desc_t ct_items[CT_ITEM_COUNT] = {
 #undef CT_X_DESC
 };
 
+/* Every minimum fits ct_desc_t.min (uint8_t). */
+#define CT_X_MIN_FITS(name, addr, size, acc, acc_a, min, max, def, def_a) \
+  _Static_assert((min) <= 255, "CT_ITEMS: minimum of " #name " does not fit ct_desc_t.min");
+CT_ITEMS(CT_X_MIN_FITS)
+#undef CT_X_MIN_FITS
+
 /* Address -> item index, so a write or read window is walked item by item in O(items). */
 static const DXL_FLASH uint8_t item_index_by_addr[CT_SIZE] = {
 #define CT_X_INDEX_BY_ADDR(name, addr, size, acc, acc_a, min, max, def, def_a) \

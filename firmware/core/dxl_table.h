@@ -34,11 +34,12 @@ enum ct_index {
 };
 
 /* One item as the built profile sees it. */
+/* 8 bytes an item (flash): no minimum is above 255 (checked in dxl_table.c). */
 typedef struct {
   uint8_t addr;
   uint8_t size_bytes; /* 1 or 2 */
   uint8_t access;     /* enum ct_access */
-  uint16_t min;
+  uint8_t min;
   uint16_t max;
   uint16_t factory_default;
 } ct_desc_t;

@@ -34,6 +34,7 @@ volatile uint8_t uart_rx_line_error_count; /* RX ISR */
  * only once the state says a reply is armed or under way. */
 volatile uint8_t uart_tx_state;
 volatile uint8_t uart_tx_checksum;    /* ARMED: the byte that completes the packet */
+volatile uint8_t uart_tx_skip;        /* ARMED: bytes to let pass before the checksum (RX ISR counts down) */
 volatile uint8_t uart_tx_mode;        /* UART_START_* */
 volatile uint16_t uart_tx_delay_ticks; /* Return Delay Time in Timer1 ticks */
 volatile uint8_t uart_tx_first;       /* bytes[0], so the start path is one LDS */
@@ -118,7 +119,7 @@ ISR(TIMER1_COMPA_vect) {
   TIMSK1 = _BV(OCIE1B);
 }
 
-void uart_reply_load(const uint8_t *bytes, uint8_t length, uint16_t delay_us) {
+__attribute__((noinline)) void uart_reply_load(const uint8_t *bytes, uint8_t length, uint16_t delay_us) {
   tx_bytes = bytes;
   tx_length = length;
   uart_tx_first = bytes[0];
@@ -133,17 +134,18 @@ void uart_reply_load(const uint8_t *bytes, uint8_t length, uint16_t delay_us) {
   }
 }
 
-uint8_t uart_reply_arm(uint8_t expected_checksum) {
+uint8_t uart_reply_arm(uint8_t expected_checksum, uint8_t skip) {
   uint8_t state;
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     const uint8_t tail = uart_rx_tail;
     const uint8_t waiting = (uint8_t)(uart_rx_head - tail);
-    if (waiting == 0) {
+    if (waiting <= skip) {
       uart_tx_checksum = expected_checksum;
+      uart_tx_skip = (uint8_t)(skip - waiting);
       uart_tx_state = UART_REPLY_ARMED;
-    } else if (uart_rx_ring[tail & UART_RX_RING_MASK] == expected_checksum) {
+    } else if (uart_rx_ring[(uint8_t)(tail + skip) & UART_RX_RING_MASK] == expected_checksum) {
       /* Already in: its tick is known only if it is the newest byte. */
-      reply_start_late(waiting == 1 ? uart_rx_tick : TCNT1);
+      reply_start_late(waiting == (uint8_t)(skip + 1u) ? uart_rx_tick : TCNT1);
     }
     state = uart_tx_state;
   }

@@ -97,6 +97,12 @@ extern volatile uint8_t uart_tx_state; /* UART_REPLY_* */
 extern volatile uint8_t uart_rx_dropped_count;
 extern volatile uint8_t uart_rx_line_error_count;
 
+/* Bytes waiting in the ring, and the one offset bytes after the oldest (offset < waiting). */
+static inline uint8_t uart_rx_waiting(void) { return (uint8_t)(uart_rx_head - uart_rx_tail); }
+static inline uint8_t uart_rx_peek(uint8_t offset) {
+  return uart_rx_ring[(uint8_t)(uart_rx_tail + offset) & UART_RX_RING_MASK];
+}
+
 /* True when the ring holds a byte. */
 static inline bool uart_rx_available(void) { return uart_rx_head != uart_rx_tail; }
 
@@ -119,13 +125,16 @@ static inline uint8_t uart_reply_state(void) { return uart_tx_state; }
  * until the state is DONE. */
 void uart_reply_load(const uint8_t *bytes, uint8_t length, uint16_t delay_us);
 
-/* Arms the loaded reply for the next received byte, the checksum expected_checksum of the
- * packet whose other bytes the main loop has all popped. Returns the new state:
+/* Arms the loaded reply for a received byte still to come: the checksum expected_checksum,
+ * which is the (skip + 1)-th byte after the last one the main loop popped. The RX ISR lets
+ * skip bytes pass, then compares. Returns the new state:
  *   ARMED            the byte is not in yet; the RX ISR will start the reply if it matches;
  *   WAITING/SENDING  the byte was already in the ring and matched: started from its tick;
  *   IDLE             the byte was already in and differs: nothing started.
- * The byte itself still goes through the ring as usual. */
-uint8_t uart_reply_arm(uint8_t expected_checksum);
+ * The bytes themselves still go through the ring as usual. A PING is armed with skip 1 as
+ * soon as its LENGTH is examined: given ID and LENGTH 2, a matching checksum proves both the
+ * instruction (PING) and the checksum. */
+uint8_t uart_reply_arm(uint8_t expected_checksum, uint8_t skip);
 
 /* ARMED -> IDLE. Returns false when the RX ISR had already started the reply. */
 bool uart_reply_disarm(void);

@@ -4,7 +4,8 @@
  *
  * Every byte: record TCNT1 (uart_rx_tick), count a frame error / data overrun flagged for it,
  * append it to the ring (or count it dropped when the ring is full).
- * When a reply is ARMED, this byte is the checksum of the packet the main loop prepared:
+ * When a reply is ARMED, the first uart_tx_skip bytes pass (counted down); the next is the
+ * checksum of the packet the main loop prepared:
  *   differs  -> IDLE (the main loop handles the packet as usual: Checksum Error etc.);
  *   matches  -> start the reply, by uart_tx_mode:
  *     NOW    write the first byte at once (set PD2, UDR0, receiver off, UDRE interrupt on);
@@ -16,7 +17,7 @@
  * Registers: r18:r19 tick, r24 scratch, r25 the byte, Z. r1 is not assumed to be 0.
  * Cycles, counting the 4-cycle interrupt response and the vector JMP (docs/firmware.md):
  * common path 78 (simavr measures 69: it charges no response); an armed NOW start writes
- * UDR0 at cycle 52 (47 in simavr).
+ * UDR0 at cycle 57 (52 in simavr).
  */
 #include <avr/io.h>
 #include "uart.h"
@@ -83,6 +84,12 @@ USART_RX_vect:
   rjmp .Ltick
 
 .Larmed:
+  lds r24, uart_tx_skip
+  subi r24, 1
+  brcs 4f                            /* skip was 0: this is the checksum */
+  sts uart_tx_skip, r24              /* a byte before the checksum */
+  rjmp .Lstore
+4:
   lds r24, uart_tx_checksum
   cp r25, r24
   breq 2f
