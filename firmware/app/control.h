@@ -1,8 +1,9 @@
 /* The control seam: what runs once per control tick (1 kHz, timebase.h) in the main loop,
  * after the ADC readings of that tick are in the control table.
  *
- * Contract for the motion control to come (compliance position loop, alarms, Present Speed /
- * Load / Moving): read the table and held conditions of *servo, write the Present* items and
+ * control_tick() runs dxl_control_tick() (firmware/core/dxl_control.h, docs/control.md) on
+ * the Present Position / Voltage / Temperature the main loop published and sets the H-bridge:
+ * drive -1023..1023 -> motor_set_drive(drive x 255 / 1023). Contract: read the table and held conditions of *servo, write the Present* items and
  * servo->held_conditions, and drive the motor only through motor_set_drive(). It runs in the
  * main loop, never in an ISR, so it may take a few hundred microseconds; a packet arriving
  * meanwhile waits in the UART ring (64 bytes = 640 us at 1 Mbps).
@@ -10,8 +11,15 @@
 #ifndef APP_CONTROL_H
 #define APP_CONTROL_H
 
+#include <stdbool.h>
+
 #include "dxl_servo.h"
 
 void control_tick(dxl_servo_t *servo);
+
+/* The LED as the control wants it after the last tick: register 25 (LED), or the alarm blink
+ * while an alarm whose bit is set in Alarm LED holds and for 2 s after (POLICY.md "Alarms").
+ * The main loop shows this once the power-up blink is over. */
+bool control_led_on(void);
 
 #endif

@@ -52,10 +52,14 @@ static const DXL_FLASH uint8_t adc_sequence[] = {ADC_CH_POT, ADC_CH_SUPPLY, ADC_
 static dxl_finder_t finder;
 static dxl_servo_t servo;
 static dxl_response_t response; /* the reply being prepared, armed or sent */
+static dxl_ping_reply_t ping_reply; /* the reply to a PING, kept ready (refresh_ping_reply) */
 
 /* Link state of the main loop; uart_reply_state() is the UART's. */
-static bool armed;               /* response is the reply of the packet whose checksum byte is
-                                    next: armed in the UART, or already started by it */
+static bool armed;               /* response or ping_reply is the reply of the packet whose
+                                    checksum byte is armed_to_come bytes ahead: armed in the
+                                    UART, or already started by it */
+static uint8_t armed_to_come;    /* bytes still to pop, the checksum included */
+static bool armed_ping;          /* the armed reply is ping_reply: nothing to commit */
 static uint16_t armed_ms;
 static bool finder_dirty;        /* bytes pushed or a result taken since dxl_finder_next() last
                                     said DXL_FIND_NONE */
@@ -68,27 +72,25 @@ static uint8_t boot_blink_phase;
 
 static void apply_after(uint8_t after) {
   if (after & DXL_AFTER_FACTORY_RESET) {
+    /* POLICY.md: RESET's changes apply after the reply, persisting included. A power cut
+     * while the image is written leaves a CRC mismatch, which boots to the same defaults. */
     dxl_servo_factory_reset(&servo);
+    nvm_persist(servo.table);
   }
   if (after & DXL_AFTER_APPLY_BAUD) {
     uart_set_baud(servo.table[CT_ADDR_BAUD_RATE]);
   }
-  /* DXL_AFTER_PERSIST: done before the reply (send_response). */
+  /* DXL_AFTER_PERSIST of a write: done before the reply (send_response). */
 }
 
 /* After commit (or reject): persist, then reply or act at once. */
 static void send_response(void) {
   const uint8_t after = response.after;
-  if (after & DXL_AFTER_PERSIST) {
-    if (after & DXL_AFTER_FACTORY_RESET) {
-      /* The table is reset only after the reply (old ID in it); the image already holds
-       * the defaults, so the reply still proves them stored. */
-      uint8_t factory_area[CT_EEPROM_SIZE];
-      ct_load_factory_eeprom(factory_area);
-      nvm_persist(factory_area);
-    } else {
-      nvm_persist(servo.table);
-    }
+  /* A write of the EEPROM area is stored before its reply, so a reply proves the value
+   * survives a power cut (the emulator's SIGKILL test); RESET answers first. */
+  const bool persist_first = (after & DXL_AFTER_PERSIST) && !(after & DXL_AFTER_FACTORY_RESET);
+  if (persist_first) {
+    nvm_persist(servo.table);
   }
   if (response.length == 0) {
     apply_after(after);
@@ -96,7 +98,7 @@ static void send_response(void) {
   }
   after_reply = after;
   uart_reply_load(response.bytes, response.length, response.delay_us);
-  if (after & DXL_AFTER_PERSIST) {
+  if (persist_first) {
     reply_waits_for_nvm = true;
   } else {
     uart_reply_start();
@@ -122,7 +124,24 @@ static void on_bad_checksum(const dxl_packet_t *packet) {
   send_response();
 }
 
-/* When only the checksum byte is missing, prepare the reply and arm it in the UART. */
+/* The PING reply is rebuilt whenever the link is idle and nothing is armed (so no ISR reads
+ * it): after every packet handled, every reply sent and every control tick, so it always
+ * shows the table and conditions of the moment. */
+static __attribute__((noinline)) void refresh_ping_reply(void) {
+  if (!armed && uart_reply_state() == UART_REPLY_IDLE) {
+    dxl_servo_ping_reply(&servo, &ping_reply);
+  }
+}
+
+static __attribute__((noinline)) void arm(const uint8_t *bytes, uint8_t length, uint16_t delay_us, uint8_t checksum, uint8_t to_come) {
+  uart_reply_load(bytes, length, delay_us);
+  armed = uart_reply_arm(checksum, (uint8_t)(to_come - 1u)) != UART_REPLY_IDLE;
+  armed_to_come = to_come;
+  armed_ms = timebase_ms();
+}
+
+/* When only the checksum byte is missing, prepare the reply and arm it in the UART, unless
+ * it is silent or after != 0 (EEPROM, baud, reset: handled when the packet completes). */
 static void try_arm(void) {
   dxl_packet_t packet;
   uint8_t checksum;
@@ -131,11 +150,55 @@ static void try_arm(void) {
   }
   dxl_servo_prepare(&servo, &packet, &response);
   if (response.length == 0 || response.after != 0) {
-    return; /* silent, or EEPROM / baud / reset: handled when the packet completes */
+    return;
   }
-  uart_reply_load(response.bytes, response.length, response.delay_us);
-  armed = uart_reply_arm(checksum) != UART_REPLY_IDLE;
-  armed_ms = timebase_ms();
+  armed_ping = false;
+  arm(response.bytes, response.length, response.delay_us, checksum, 1u);
+}
+
+/* PING sniffing: the fast reply path at 1 Mbps, where the finder cannot examine a PING's
+ * bytes before its checksum arrives. While the finder holds nothing, bytes that could be the
+ * start FF FF ID 02 of a PING this servo answers stay in the ring (held) instead of going to
+ * the finder. Once FF FF ID 02 are in, ping_reply is armed for the checksum byte 5 bytes
+ * after the oldest; then the bytes go to the finder as usual. Given ID and LENGTH 2, only a
+ * PING with a good checksum matches (the instruction byte is not even looked at), so anything
+ * else takes the normal path. The finder would frame exactly these bytes as the candidate (it
+ * holds nothing before them), so the sniffer never answers a packet the finder would not see. Bytes are held at most
+ * PING_HOLD_MS; then they go to the finder stamped with the millisecond the hold began. */
+#define PING_HEADER_BYTES 4u /* FF FF ID 02 */
+#define PING_HOLD_MS 2u
+static const DXL_FLASH uint8_t ping_start[PING_HEADER_BYTES] = {DXL_HEADER_BYTE, DXL_HEADER_BYTE, 0 /* ID */,
+                                                                DXL_PACKET_MIN_LENGTH};
+static uint8_t held_bytes; /* bytes held in the ring, 0 = no hold */
+static uint16_t held_since_ms;
+
+/* True while the ring's bytes stay there; may arm ping_reply. Looks only at bytes that came
+ * since the last pass (the hold's time limit is service_tick's). */
+static __attribute__((noinline)) bool hold_for_ping(void) {
+  const uint8_t waiting = uart_rx_waiting();
+  if (held_bytes == 0) {
+    if (finder.fill != finder.release) {
+      return false;
+    }
+    held_since_ms = timebase_ms();
+  }
+  if (waiting > PING_HEADER_BYTES + 1u) { /* 5: the instruction is in */
+    return false;
+  }
+  for (uint8_t i = held_bytes; i < waiting && i < PING_HEADER_BYTES; i++) {
+    const uint8_t b = uart_rx_peek(i);
+    if (i == 2u ? !dxl_servo_answers(&servo, b, DXL_INST_PING) : b != ping_start[i]) {
+      return false;
+    }
+  }
+  if (waiting < PING_HEADER_BYTES) {
+    held_bytes = waiting;
+    return true;
+  }
+  const uint8_t checksum = (uint8_t)~(uart_rx_peek(2) + DXL_PACKET_MIN_LENGTH + DXL_INST_PING);
+  armed_ping = true;
+  arm(ping_reply.bytes, DXL_PING_REPLY_BYTES, ping_reply.delay_us, checksum, DXL_PING_REPLY_BYTES);
+  return false;
 }
 
 static bool link_free(void) { return uart_reply_state() == UART_REPLY_IDLE && !reply_waits_for_nvm; }
@@ -144,9 +207,10 @@ static bool link_free(void) { return uart_reply_state() == UART_REPLY_IDLE && !r
  * the current millisecond. Batching keeps up with 1 Mbps, which one finder pass per byte
  * does not; the finder examines the batch in one dxl_finder_next() pass. */
 static bool push_waiting_bytes(void) {
-  const uint16_t now_ms = timebase_ms();
+  const uint16_t now_ms = held_bytes != 0 ? held_since_ms : timebase_ms();
   bool pushed = false;
   uint8_t byte;
+  held_bytes = 0;
   while (finder.fill < DXL_PACKET_MAX_BYTES && uart_rx_pop(&byte)) {
     dxl_finder_push(&finder, byte, now_ms);
     pushed = true;
@@ -163,13 +227,18 @@ static void service_rx(void) {
         return; /* the checksum byte is still on the wire */
       }
       dxl_finder_push(&finder, byte, timebase_ms());
-      armed = false;
       finder_dirty = true;
+      if (--armed_to_come != 0) {
+        continue; /* a byte before the checksum (a PING's instruction) */
+      }
+      armed = false;
       if (uart_reply_state() != UART_REPLY_IDLE) {
-        /* The UART matched the checksum and started the prepared reply: the finder
-         * completes the same packet (DXL_FIND_PACKET); commit what was prepared. */
+        /* The UART matched the checksum and started the armed reply: the finder completes
+         * the same packet (DXL_FIND_PACKET); commit what was prepared (a PING: nothing). */
         (void)dxl_finder_next(&finder, &packet);
-        dxl_servo_commit(&servo, &response);
+        if (!armed_ping) {
+          dxl_servo_commit(&servo, &response);
+        }
         after_reply = 0;
         finder_dirty = false; /* the checksum was the last byte pushed */
       }
@@ -182,8 +251,10 @@ static void service_rx(void) {
       const dxl_find_result_t found = dxl_finder_next(&finder, &packet);
       if (found == DXL_FIND_PACKET) {
         on_packet(&packet);
+        refresh_ping_reply();
       } else if (found == DXL_FIND_BAD_CHECKSUM) {
         on_bad_checksum(&packet);
+        refresh_ping_reply();
       } else {
         finder_dirty = false;
         try_arm();
@@ -191,6 +262,11 @@ static void service_rx(void) {
           return; /* back to the main loop (watchdog, tick) between batches */
         }
       }
+    } else if (hold_for_ping()) {
+      return;
+    } else if (armed) {
+      held_bytes = 0;
+      continue; /* hold_for_ping armed ping_reply: the bytes go through the armed branch */
     } else if (push_waiting_bytes()) {
       finder_dirty = true;
     } else {
@@ -212,6 +288,7 @@ static void service_reply(void) {
     const uint8_t after = after_reply;
     after_reply = 0;
     apply_after(after);
+    refresh_ping_reply();
   }
 }
 
@@ -238,7 +315,7 @@ static void update_led(void) {
     }
     return;
   }
-  board_led_set(servo.table[CT_ADDR_LED] != 0);
+  board_led_set(control_led_on()); /* register 25, or the alarm blink (dxl_control.h) */
 }
 
 static void service_tick(void) {
@@ -250,6 +327,9 @@ static void service_tick(void) {
     armed = false;
   }
   if (!armed) {
+    if (held_bytes != 0 && (uint16_t)(now_ms - held_since_ms) >= PING_HOLD_MS) {
+      finder_dirty |= push_waiting_bytes(); /* a hold ends after PING_HOLD_MS */
+    }
     dxl_finder_poll(&finder, now_ms);
   }
   if (!adc_busy()) {
@@ -259,6 +339,7 @@ static void service_tick(void) {
   }
   control_tick(&servo);
   update_led();
+  refresh_ping_reply();
 }
 
 /* Work that no ISR flags: an EEPROM byte to write, a reply whose EEPROM write has finished.
@@ -276,7 +357,8 @@ static inline bool work_from_interrupt(void) {
   if (armed) {
     return uart_rx_available();
   }
-  return state == UART_REPLY_DONE || (state == UART_REPLY_IDLE && !reply_waits_for_nvm && uart_rx_available());
+  return state == UART_REPLY_DONE ||
+         (state == UART_REPLY_IDLE && !reply_waits_for_nvm && uart_rx_waiting() != held_bytes);
 }
 
 static void power_up(void) {
@@ -295,6 +377,7 @@ static void power_up(void) {
   publish_adc(ADC_CH_TEMP, adc_read_blocking(ADC_CH_TEMP));
   adc_start(adc_sequence[0]);
   dxl_finder_init(&finder);
+  refresh_ping_reply();
   uart_init(servo.table[CT_ADDR_BAUD_RATE]);
   board_watchdog_start();
 }

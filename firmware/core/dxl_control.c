@@ -4,10 +4,18 @@
 
 #define DIRECTION_CW_BIT 0x400u /* Present Speed / Load / wheel Moving Speed: bit 10 = CW */
 #define MAGNITUDE_MASK 0x3FFu
-#define SPEED_FILTER_SHIFT 4u /* IIR on the per-tick position change: time constant 16 ticks */
-/* counts per tick << 8  ->  0.111 rpm units: x 1000 ticks/s / 2.2711 / 256 = x 1.7200 = x 55 / 32 */
-#define SPEED_Q8_TO_UNITS_MUL 55u
-#define SPEED_Q8_TO_UNITS_SHIFT 5u
+/* Present Speed: an IIR filter (time constant 32 ticks, rounded) on the per-tick pot change,
+ * kept in Present Speed units x 8 in 16 bits. One count per tick is 1000 / 2.2711 = 440.3
+ * units (0.111 rpm = 2.2711 counts/s). Steps are rounded (no bias on the pot's alternating
+ * 0 / 2-tick differences), and one too small to show moves the state by one, so it settles
+ * exactly on a constant input (0 at rest). */
+#define SPEED_FILTER_SHIFT 5u
+#define SPEED_UNITS_PER_COUNT_X8 (440 * 8)
+#define SPEED_FRACTION_SHIFT 3u
+/* A position change larger than this in one tick is no motion (the pot is read every other
+ * tick: ~2.6 counts between readings at 63 rpm, the fastest a 12 V supply allows): the pot
+ * wrapped past its ends (wheel mode); the speed holds. Keeps target - speed_x8 in 16 bits. */
+#define SPEED_MAX_DELTA_COUNTS 6
 #define SLOPE_SHIFT_MIN 1u /* slope acts as 2.. */
 #define SLOPE_SHIFT_MAX 8u /* ..256 */
 
@@ -106,15 +114,25 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
   }
   const int16_t delta = (int16_t)(position - c->last_position_counts);
   c->last_position_counts = position;
-  c->speed_q8 = (int16_t)(c->speed_q8 + (((int16_t)(delta * 256) - c->speed_q8) >> SPEED_FILTER_SHIFT));
-  const int16_t speed_units =
-      (int16_t)(((int32_t)c->speed_q8 * (int32_t)SPEED_Q8_TO_UNITS_MUL) >> SPEED_Q8_TO_UNITS_SHIFT);
+  if (delta <= SPEED_MAX_DELTA_COUNTS && delta >= -SPEED_MAX_DELTA_COUNTS) {
+    const int16_t target = (int16_t)(delta * SPEED_UNITS_PER_COUNT_X8);
+    const int16_t diff = (int16_t)(target - c->speed_x8);
+    int16_t step = (int16_t)((diff + (1 << (SPEED_FILTER_SHIFT - 1u))) >> SPEED_FILTER_SHIFT);
+    if (step == 0) {
+      step = (int16_t)((diff > 0) - (diff < 0)); /* settle exactly: at rest it reads 0 */
+    }
+    c->speed_x8 = (int16_t)(c->speed_x8 + step);
+  }
+  const int16_t speed_units = (int16_t)((c->speed_x8 + (1 << (SPEED_FRACTION_SHIFT - 1u))) >> SPEED_FRACTION_SHIFT);
 
   ct_set_u16(table, CT_ADDR_PRESENT_POSITION, position);
   ct_set_u16(table, CT_ADDR_PRESENT_SPEED, signed_to_register(speed_units));
   table[CT_ADDR_PRESENT_VOLTAGE] = sensors->voltage_dv;
   table[CT_ADDR_PRESENT_TEMPERATURE] = sensors->temperature_c;
 
+  if (table[CT_ADDR_TORQUE_ENABLE] != 0 && !c->torque_was_enabled) {
+    c->overload_ms = 0; /* Torque Enable written 1: a latched overload ends here */
+  }
   /* Alarms first, so a shutdown takes effect in this tick's drive. */
   servo->held_conditions = measured_conditions(table, sensors, c->overload_ms >= DXL_OVERLOAD_WINDOW_MS);
   const uint8_t active_alarms = (uint8_t)(dxl_servo_conditions(servo) | dxl_servo_take_events(servo));
@@ -135,7 +153,6 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
   const uint16_t torque_limit = ct_get_u16(table, CT_ADDR_TORQUE_LIMIT);
   const uint16_t moving_speed = ct_get_u16(table, CT_ADDR_MOVING_SPEED);
   int16_t drive = 0;
-  bool demand_exceeds_limit = false;
   bool moving = false;
   if (!torque_enabled) {
     c->setpoint_q16 = (int32_t)position << 16;
@@ -143,7 +160,6 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
     const uint16_t wanted = moving_speed & MAGNITUDE_MASK;
     const uint16_t applied = wanted < torque_limit ? wanted : torque_limit;
     drive = (moving_speed & DIRECTION_CW_BIT) ? (int16_t)-(int16_t)applied : (int16_t)applied;
-    demand_exceeds_limit = wanted != 0 && wanted >= torque_limit;
     moving = drive != 0;
     c->setpoint_q16 = (int32_t)position << 16;
   } else {
@@ -158,10 +174,6 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
     const uint8_t ccw_slope = table[CT_ADDR_CCW_COMPLIANCE_SLOPE];
     drive = dxl_control_compliance_drive(error, cw_margin, ccw_margin, cw_slope, ccw_slope,
                                          ct_get_u16(table, CT_ADDR_PUNCH), torque_limit);
-    const uint16_t error_magnitude = (uint16_t)(error < 0 ? -error : error);
-    const uint8_t margin = error > 0 ? cw_margin : ccw_margin;
-    const uint8_t shift = dxl_control_slope_shift(error > 0 ? cw_slope : ccw_slope);
-    demand_exceeds_limit = torque_limit != 0 && error_magnitude >= (uint16_t)(margin + (1u << shift));
     const int16_t goal_error = (int16_t)(goal - position);
     const uint16_t goal_error_magnitude = (uint16_t)(goal_error < 0 ? -goal_error : goal_error);
     const uint8_t goal_margin = goal_error > 0 ? cw_margin : ccw_margin;
@@ -169,13 +181,17 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
              goal_error_magnitude > (uint16_t)(goal_margin + DXL_ARRIVAL_TOLERANCE_COUNTS);
   }
 
+  /* The law demands at least Torque Limit: past margin + slope in joint mode (or any error
+   * past the margin when Punch >= Torque Limit), a capped drive in wheel mode. */
+  const uint16_t drive_magnitude = (uint16_t)(drive < 0 ? -drive : drive);
+  const bool demand_exceeds_limit = torque_limit != 0 && drive_magnitude >= torque_limit;
   const uint16_t speed_magnitude = (uint16_t)(speed_units < 0 ? -speed_units : speed_units);
   if (demand_exceeds_limit && speed_magnitude < DXL_OVERLOAD_STALL_SPEED) {
     if (c->overload_ms < DXL_OVERLOAD_WINDOW_MS) {
       c->overload_ms++;
     }
-  } else {
-    c->overload_ms = 0;
+  } else if (torque_enabled) {
+    c->overload_ms = 0; /* with torque off (shut down by it) the overload stays latched */
   }
 
   ct_set_u16(table, CT_ADDR_PRESENT_LOAD, signed_to_register(drive));

@@ -19,9 +19,11 @@
  * DXL_ALARM_LED_HOLD_MS after; a bit set in Alarm Shutdown turns torque off (Torque Enable
  * reads 0; in profile ax12a Torque Limit is also set to 0) until Torque Enable is written 1.
  *
- * Overload: the compliance law demands at least Torque Limit (the error lies past margin +
- * slope, or the wheel-mode drive is capped) while the output is stalled (|Present Speed| under
- * DXL_OVERLOAD_STALL_SPEED) for DXL_OVERLOAD_WINDOW_MS in a row.
+ * Overload: the drive is at Torque Limit (the error lies past margin + slope, or past the margin
+ * when Punch >= Torque Limit, or the wheel-mode drive is capped) while the output is stalled
+ * (|Present Speed| under DXL_OVERLOAD_STALL_SPEED) for DXL_OVERLOAD_WINDOW_MS in a row. Once
+ * tripped, the condition holds while that lasts, and while torque is off, until Torque Enable
+ * is written 1 (so the reason for a shutdown stays visible in the error byte).
  *
  * Budget: one call per DXL_CONTROL_PERIOD_US, from the main loop; no division on the AVR
  * except by powers of two.
@@ -53,7 +55,7 @@ typedef struct {
 
 typedef struct {
   int32_t setpoint_q16;   /* motion setpoint, counts << 16 */
-  int16_t speed_q8;       /* filtered position change, counts per tick << 8 */
+  int16_t speed_x8;       /* filtered speed, Present Speed units x 8, + = CCW */
   uint16_t last_position_counts;
   uint16_t overload_ms;   /* how long the overload test has held */
   uint16_t alarm_led_ms;  /* remaining blink time after the last alarm */

@@ -253,6 +253,13 @@ void board_set_temperature_c(board_t *board, double celsius) {
   feed_adc(board);
 }
 
+void board_set_analog_mv(board_t *board, double pot_mv, double supply_mv, double temperature_mv) {
+  board->world.pot_deg = pot_mv * BOARD_POT_RANGE_DEG / BOARD_ADC_FULL_SCALE_MV;
+  board->world.supply_v = supply_mv * 5.0 / 1000.0;
+  board->world.temperature_c = (temperature_mv - 500.0) / 10.0;
+  feed_adc(board);
+}
+
 double board_pwm_duty(const board_t *board) { return ((double)board->pwm_a - (double)board->pwm_b) / 255.0; }
 
 const board_led_event_t *board_led_event(const board_t *board, uint64_t i) {

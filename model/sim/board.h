@@ -67,6 +67,9 @@ void board_set_pot_deg(board_t *board, double deg);
 void board_set_supply_v(board_t *board, double volts);
 void board_set_temperature_c(board_t *board, double celsius);
 
+/* All three analog inputs at once, as millivolts at the pins (the plant's readings). */
+void board_set_analog_mv(board_t *board, double pot_mv, double supply_mv, double temperature_mv);
+
 /* The analog inputs in millivolts, as the ADC sees them now. */
 uint32_t board_pot_mv(const board_t *board);
 uint32_t board_supply_mv(const board_t *board);

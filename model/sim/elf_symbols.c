@@ -9,6 +9,12 @@
 
 #define AVR_DATA_OFFSET 0x800000u
 
+/* name itself, or a compiler clone of it: name.constprop.N, name.lto_priv.N, name.part.N */
+static bool symbol_matches(const char *sym_name, const char *name) {
+  const size_t len = strlen(name);
+  return strncmp(sym_name, name, len) == 0 && (sym_name[len] == '\0' || sym_name[len] == '.');
+}
+
 bool elf_symbol_address(const char *elf_path, const char *name, uint32_t *address) {
   if (elf_version(EV_CURRENT) == EV_NONE) {
     return false;
@@ -33,7 +39,7 @@ bool elf_symbol_address(const char *elf_path, const char *name, uint32_t *addres
         continue;
       }
       const char *sym_name = elf_strptr(elf, shdr.sh_link, sym.st_name);
-      if (sym_name && strcmp(sym_name, name) == 0) {
+      if (sym_name && symbol_matches(sym_name, name)) {
         uint32_t value = (uint32_t)sym.st_value;
         if (value >= AVR_DATA_OFFSET && value < AVR_DATA_OFFSET + 0x10000u) {
           value -= AVR_DATA_OFFSET;

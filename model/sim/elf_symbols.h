@@ -7,7 +7,8 @@
 #include <stdbool.h>
 #include <stdint.h>
 
-/* Looks `name` up in the ELF's symbol table. */
+/* Looks `name` up in the ELF's symbol table (or a compiler clone of it: `name.constprop.N`,
+ * `name.lto_priv.N`...). */
 bool elf_symbol_address(const char *elf_path, const char *name, uint32_t *address);
 
 /* The first RAM address after .data/.bss/.noinit: `_end` (or `__heap_start`, `__bss_end`). */

@@ -22,6 +22,7 @@
 #include "eeprom_store.h"
 #include "id_list.h"
 #include "pacing.h"
+#include "plant_options.h"
 #include "pty_bridge.h"
 #include "servo.h"
 #include "world.h"
@@ -63,7 +64,9 @@ static const char usage_text[] =
     "  --elf PATH          firmware ELF (default: <firmware-dir>/ax12-<profile>-<mcu>.elf)\n"
     "  --firmware-dir DIR  where the firmware ELFs are (default: the build's)\n"
     "  --stats             print bus and timing statistics to stderr on exit\n"
-    "  -h, --help          this text\n";
+    "  -h, --help          this text\n"
+    "\n"
+    "The physical world of every servo (model/plant: motor, gears, pot, supply, heat):\n";
 
 typedef struct {
   uint8_t ids[ID_LIST_MAX_ID + 1u];
@@ -77,6 +80,7 @@ typedef struct {
   char elf[PATH_MAX];
   const char *firmware_dir;
   bool stats;
+  plant_options_t world;
 } serve_options_t;
 
 static int fail_usage(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
@@ -158,7 +162,8 @@ static bool parse_uint(const char *text, unsigned max, unsigned *value) {
 /* Returns -1 to go on, else an exit status. */
 static int parse_serve_options(int argc, char **argv, serve_options_t *o) {
   enum { OPT_IDS = 256, OPT_LINK, OPT_STATE_DIR, OPT_PROFILE, OPT_MCU, OPT_BAUD, OPT_REALTIME, OPT_FAST, OPT_ELF,
-         OPT_FIRMWARE_DIR, OPT_STATS };
+         OPT_FIRMWARE_DIR, OPT_STATS, OPT_SUPPLY, OPT_AMBIENT, OPT_ANGLE, OPT_LOAD_TORQUE, OPT_LOAD_SPRING,
+         OPT_LOAD_ARM };
   static const struct option long_options[] = {
       {"ids", required_argument, NULL, OPT_IDS},
       {"link", required_argument, NULL, OPT_LINK},
@@ -171,6 +176,12 @@ static int parse_serve_options(int argc, char **argv, serve_options_t *o) {
       {"elf", required_argument, NULL, OPT_ELF},
       {"firmware-dir", required_argument, NULL, OPT_FIRMWARE_DIR},
       {"stats", no_argument, NULL, OPT_STATS},
+      {"supply", required_argument, NULL, OPT_SUPPLY},
+      {"ambient", required_argument, NULL, OPT_AMBIENT},
+      {"angle", required_argument, NULL, OPT_ANGLE},
+      {"load-torque", required_argument, NULL, OPT_LOAD_TORQUE},
+      {"load-spring", required_argument, NULL, OPT_LOAD_SPRING},
+      {"load-arm", required_argument, NULL, OPT_LOAD_ARM},
       {"help", no_argument, NULL, 'h'},
       {NULL, 0, NULL, 0},
   };
@@ -183,6 +194,7 @@ static int parse_serve_options(int argc, char **argv, serve_options_t *o) {
   o->realtime = true;
   o->firmware_dir = AX12_DEFAULT_FIRMWARE_DIR;
   default_state_dir(o->state_dir, sizeof(o->state_dir));
+  plant_options_default(&o->world);
   opterr = 0;
   optind = 1;
   int c;
@@ -233,8 +245,21 @@ static int parse_serve_options(int argc, char **argv, serve_options_t *o) {
     case OPT_STATS:
       o->stats = true;
       break;
+    case OPT_SUPPLY:
+    case OPT_AMBIENT:
+    case OPT_ANGLE:
+    case OPT_LOAD_TORQUE:
+    case OPT_LOAD_SPRING:
+    case OPT_LOAD_ARM: {
+      static const char *const names[] = {"supply", "ambient", "angle", "load-torque", "load-spring", "load-arm"};
+      if (!plant_options_parse(&o->world, names[c - OPT_SUPPLY], optarg, err, sizeof(err))) {
+        return fail_usage("%s", err);
+      }
+      break;
+    }
     case 'h':
       fputs(usage_text, stdout);
+      fputs(plant_options_help, stdout);
       return 0;
     case ':':
       return fail_usage("option %s needs a value", argv[optind - 1]);
@@ -302,6 +327,11 @@ static int serve(int argc, char **argv) {
       world_destroy(world);
       return 1;
     }
+  }
+  ax12_plant_t plant;
+  plant_options_build(&o.world, &plant);
+  for (size_t i = 0; i < world->servo_count; i++) {
+    servo_attach_plant(world->servos[i], &plant);
   }
   /* The pty starts at the first servo's baud, so a client that sets none still talks. */
   uint8_t first_baud = (uint8_t)o.baud;
@@ -396,10 +426,12 @@ static int serve(int argc, char **argv) {
 int main(int argc, char **argv) {
   if (argc < 2) {
     fputs(usage_text, stderr);
+    fputs(plant_options_help, stderr);
     return EXIT_USAGE;
   }
   if (strcmp(argv[1], "-h") == 0 || strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "help") == 0) {
     fputs(usage_text, stdout);
+    fputs(plant_options_help, stdout);
     return 0;
   }
   if (strcmp(argv[1], "serve") == 0) {

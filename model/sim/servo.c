@@ -208,6 +208,59 @@ static void run_step(avr_t *avr) {
   }
 }
 
+/* Busy-time probe: from the instruction at probe_pc (an ISR's entry) until the core sleeps
+ * again. An entry while already inside (the work overran into the next period) extends it. */
+static void probe(servo_t *servo) {
+  avr_t *avr = servo->avr;
+  if (!servo->probe_inside) {
+    if (avr->pc == servo->probe_pc) {
+      servo->probe_start = avr->cycle;
+      servo->probe_inside = true;
+    }
+    return;
+  }
+  if (avr->state == cpu_Sleeping) {
+    const sim_cycles_t spent = avr->cycle - servo->probe_start;
+    servo->probe_inside = false;
+    servo->probe_calls++;
+    servo->probe_total_cycles += spent;
+    if (spent > servo->probe_max_cycles) {
+      servo->probe_max_cycles = spent;
+    }
+  }
+}
+
+void servo_set_probe(servo_t *servo, uint32_t entry_pc) {
+  servo->probe_pc = entry_pc;
+  servo->probe_inside = false;
+  servo->probe_calls = 0;
+  servo->probe_max_cycles = servo->probe_total_cycles = 0;
+}
+
+void servo_show_plant(servo_t *servo) {
+  if (!servo->has_plant) {
+    return;
+  }
+  const ax12_plant_t *p = &servo->plant;
+  board_set_analog_mv(&servo->board, ax12_plant_pot_mv(p), ax12_plant_supply_sense_mv(p), ax12_plant_temp_sense_mv(p));
+}
+
+void servo_attach_plant(servo_t *servo, const ax12_plant_t *plant) {
+  servo->plant = *plant;
+  servo->has_plant = true;
+  servo->plant_at = servo->avr->cycle;
+  servo_show_plant(servo);
+}
+
+void servo_step_plant(servo_t *servo, sim_cycles_t now, bool force) {
+  if (!servo->has_plant || now <= servo->plant_at || (!force && now - servo->plant_at < SERVO_PLANT_STEP)) {
+    return;
+  }
+  ax12_plant_step(&servo->plant, board_pwm_duty(&servo->board), (double)(now - servo->plant_at) / SIM_CPU_HZ);
+  servo->plant_at = now;
+  servo_show_plant(servo);
+}
+
 void servo_run_until(servo_t *servo, sim_cycles_t t) {
   avr_t *avr = servo->avr;
   while (!servo->halted && avr->cycle < t) {
@@ -222,6 +275,9 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
       }
     }
     run_step(avr);
+    if (servo->probe_pc) {
+      probe(servo);
+    }
     if (avr->state == cpu_Done || avr->state == cpu_Crashed) {
       servo->halted = true;
       servo->halt_state = avr->state;

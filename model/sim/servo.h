@@ -23,6 +23,7 @@
 #include "board.h"
 #include "bus.h"
 #include "eeprom_store.h"
+#include "plant.h"
 #include "sim_time.h"
 
 struct avr_t;
@@ -65,6 +66,17 @@ typedef struct servo {
   uint64_t persists;
   uint64_t persist_errors;
   char last_error[256];
+  /* Physics (model/plant): when has_plant, the world steps the plant with the H-bridge duty
+   * and feeds its pot / supply / temperature voltages to the board (servo_step_plant). */
+  bool has_plant;
+  ax12_plant_t plant;
+  sim_cycles_t plant_at; /* simulated time the plant has reached */
+  /* Busy-time probe (servo_set_probe). */
+  uint32_t probe_pc;      /* byte address of an ISR's entry; 0 = off */
+  bool probe_inside;
+  sim_cycles_t probe_start;
+  uint64_t probe_calls;
+  sim_cycles_t probe_max_cycles, probe_total_cycles;
 } servo_t;
 
 /* Loads the firmware into a new MCU, its EEPROM from the state file (seeded when missing:
@@ -99,6 +111,24 @@ void servo_reset(servo_t *servo);
 
 /* Power off and on: as servo_reset, with the power-on reset flag (PORF) set in MCUSR. */
 void servo_power_cycle(servo_t *servo);
+
+/* Plant step: at most this much simulated time between two plant steps. */
+#define SERVO_PLANT_STEP ((sim_cycles_t)100u * SIM_CYCLES_PER_US)
+
+/* Gives the servo a plant (copied), whose readings the board shows from now on. The plant's
+ * clock starts at the servo's. */
+void servo_attach_plant(servo_t *servo, const ax12_plant_t *plant);
+/* Steps the plant to now if it lags by SERVO_PLANT_STEP or more (force: whatever the lag),
+ * with the H-bridge duty of the board, and feeds its readings to the board. */
+void servo_step_plant(servo_t *servo, sim_cycles_t now, bool force);
+/* Shows the plant's readings on the board (after changing the plant's state directly). */
+void servo_show_plant(servo_t *servo);
+
+/* Measures the busy time after each execution of the instruction at byte address entry_pc
+ * (0 = off), typically an ISR's entry: cycles from there until the core next sleeps (the work
+ * the interrupt wakes the main loop for, other interrupts meanwhile included). Count, worst
+ * and total in probe_calls, probe_max_cycles, probe_total_cycles. */
+void servo_set_probe(servo_t *servo, uint32_t entry_pc);
 
 /* Stack depth: RAMEND - (lowest address above the end of .bss whose byte is not
  * paint_pattern) + 1, i.e. the deepest the stack has reached since the paint. bss_end is the

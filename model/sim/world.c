@@ -130,6 +130,9 @@ void world_run_until(world_t *world, sim_cycles_t t) {
     bus_finalize(bus, horizon);
     world->steps++;
     (void)world_poll_persist(world);
+    for (size_t i = 0; i < world->servo_count; i++) {
+      servo_step_plant(world->servos[i], horizon, false);
+    }
     if (world->after_step) {
       world->after_step(world, world->after_step_ctx);
     }

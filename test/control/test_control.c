@@ -240,6 +240,42 @@ static void a_stall_at_the_torque_limit_is_an_overload_after_the_window(void **s
   assert_false(dxl_servo_conditions(&r.servo) & DXL_ERR_OVERLOAD);
 }
 
+static void an_overload_shutdown_stays_latched_until_torque_enable_is_written(void **state) {
+  (void)state;
+  rig_t r;
+  rig_init(&r, 200);
+  r.stalled = true;
+  r.servo.table[CT_ADDR_ALARM_SHUTDOWN] = DXL_ERR_OVERLOAD;
+  r.servo.table[CT_ADDR_TORQUE_ENABLE] = 1;
+  write_u16(&r, CT_ADDR_GOAL_POSITION, 800);
+  run_ms(&r, DXL_OVERLOAD_WINDOW_MS + 5);
+  assert_int_equal(r.servo.table[CT_ADDR_TORQUE_ENABLE], 0);
+  r.stalled = false;
+  run_ms(&r, 500);
+  assert_true(dxl_servo_conditions(&r.servo) & DXL_ERR_OVERLOAD); /* the reason stays visible */
+  write_u16(&r, CT_ADDR_GOAL_POSITION, read_u16(&r, CT_ADDR_PRESENT_POSITION));
+  r.servo.table[CT_ADDR_TORQUE_ENABLE] = 1;
+  run_ms(&r, 1);
+  assert_int_equal(r.servo.table[CT_ADDR_TORQUE_ENABLE], 1);
+  assert_false(dxl_servo_conditions(&r.servo) & DXL_ERR_OVERLOAD);
+}
+
+static void present_speed_reads_the_rate_and_zero_at_rest(void **state) {
+  (void)state;
+  rig_t r;
+  rig_init(&r, 100);
+  r.counts_per_tick_per_drive = 0.5 / 1023.0; /* 0.5 count/ms = 220 units at full drive */
+  r.servo.table[CT_ADDR_TORQUE_ENABLE] = 1;
+  write_u16(&r, CT_ADDR_CW_ANGLE_LIMIT, 0);
+  write_u16(&r, CT_ADDR_CCW_ANGLE_LIMIT, 0);
+  write_u16(&r, CT_ADDR_MOVING_SPEED, 1023);
+  run_ms(&r, 400);
+  assert_in_range(read_u16(&r, CT_ADDR_PRESENT_SPEED), 215, 225);
+  write_u16(&r, CT_ADDR_MOVING_SPEED, 0);
+  run_ms(&r, 400);
+  assert_int_equal(read_u16(&r, CT_ADDR_PRESENT_SPEED), 0);
+}
+
 static void events_blink_the_led_when_their_bit_is_set(void **state) {
   (void)state;
   rig_t r;
@@ -268,6 +304,8 @@ int main(void) {
       cmocka_unit_test(overheating_blinks_shuts_down_and_recovers_when_reenabled),
       cmocka_unit_test(input_voltage_outside_the_limits_is_a_condition),
       cmocka_unit_test(a_stall_at_the_torque_limit_is_an_overload_after_the_window),
+      cmocka_unit_test(an_overload_shutdown_stays_latched_until_torque_enable_is_written),
+      cmocka_unit_test(present_speed_reads_the_rate_and_zero_at_rest),
       cmocka_unit_test(events_blink_the_led_when_their_bit_is_set),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);

@@ -1,0 +1,76 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""ax12-emu serve with the plant (docs/emulator.md "The plant", docs/control.md): the world
+options reach the servo (supply, ambient, angle, load), a goal write moves the output, and bad
+world values are one-line errors. Raw Protocol 1.0 packets through pyserial, --fast."""
+import subprocess
+import time
+
+import pytest
+import serial
+
+from conftest import EMU, packet
+
+
+def transact(port, request, reply_len, timeout=1.0):
+    port.reset_input_buffer()
+    port.write(request)
+    port.timeout = timeout
+    return port.read(reply_len)
+
+
+def read(port, addr, n):
+    reply = transact(port, packet(1, 0x02, [addr, n]), 6 + n)
+    assert reply[:4] == bytes([0xFF, 0xFF, 1, 2 + n]), reply.hex()
+    return reply[5] if n == 1 else reply[5] | (reply[6] << 8)
+
+
+def write(port, addr, *data):
+    assert len(transact(port, packet(1, 0x03, [addr, *data]), 6)) == 6
+
+
+def test_the_world_options_reach_the_servo(emulator, tmp_path):
+    emu = emulator("--fast", "--state-dir", str(tmp_path), "--supply", "12", "--ambient", "40",
+                   "--angle", "60")
+    with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
+        assert read(port, 42, 1) == 120                   # Present Voltage, V x 10 (0.1 ohm, 35 mA)
+        assert 40 <= read(port, 43, 1) <= 41             # Present Temperature
+        assert abs(read(port, 36, 2) - 205) <= 1         # 60 deg = count 204.8
+
+
+def test_a_goal_write_moves_the_output(emulator, tmp_path):
+    emu = emulator("--fast", "--state-dir", str(tmp_path))
+    with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
+        write(port, 24, 1)                                # Torque Enable
+        write(port, 30, 700 & 0xFF, 700 >> 8)             # Goal Position 700
+        deadline = time.monotonic() + 20
+        while abs(read(port, 36, 2) - 700) > 3 or read(port, 46, 1):
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+
+
+def test_a_load_arm_pulls_a_limp_output_down(emulator, tmp_path):
+    # Torque off: the arm (horizontal at 150 deg) swings down toward 60 deg.
+    emu = emulator("--fast", "--state-dir", str(tmp_path), "--load-arm", "0.2,0.1")
+    with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
+        deadline = time.monotonic() + 20
+        while read(port, 36, 2) > 400:
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+
+
+@pytest.mark.parametrize("args", [["--supply", "50"], ["--supply", "x"], ["--ambient", "-100"],
+                                  ["--load-torque", "11"], ["--load-spring", "1,2,3"],
+                                  ["--load-arm", "1"], ["--angle", "400"],
+                                  ["--load-torque", "1", "--load-arm", "1,0.1"]])
+def test_bad_world_values_are_one_line_errors(tmp_path, args):
+    proc = subprocess.run([EMU, "serve", "--state-dir", str(tmp_path)] + args, capture_output=True,
+                          text=True, timeout=10)
+    assert proc.returncode == 2
+    assert proc.stdout == ""
+    assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
+
+
+def test_help_lists_the_world_options():
+    out = subprocess.run([EMU, "serve", "--help"], capture_output=True, text=True, timeout=10).stdout
+    for option in ("--supply", "--ambient", "--angle", "--load-torque", "--load-spring", "--load-arm"):
+        assert option in out
