@@ -1,0 +1,96 @@
+"""The AX-12 control table as POLICY.md states it, for the client suites.
+
+Written from the spec on purpose (not generated from firmware/core/ct_items.h), so the
+client tests check the firmware against the policy rather than against itself.
+"""
+from collections import namedtuple
+
+Item = namedtuple("Item", "addr size access name lo hi default_ax12 default_ax12a")
+
+R, RW, NONE = "R", "RW", "-"
+RUNTIME = object()   # filled at power-up or measured
+
+# addr, bytes, access (ax12), name, write range, default ax12, default ax12a
+TABLE = [
+    Item(0, 2, R, "Model Number", None, None, 12, 12),
+    Item(2, 1, R, "Firmware Version", None, None, RUNTIME, RUNTIME),
+    Item(3, 1, RW, "ID", 0, 253, 1, 1),
+    Item(4, 1, RW, "Baud Rate", 0, 254, 1, 1),
+    Item(5, 1, RW, "Return Delay Time", 0, 254, 250, 250),
+    Item(6, 2, RW, "CW Angle Limit", 0, 1023, 0, 0),
+    Item(8, 2, RW, "CCW Angle Limit", 0, 1023, 1023, 1023),
+    Item(10, 1, NONE, "reserved", None, None, 0, 0),
+    Item(11, 1, RW, "Highest Limit Temperature", 0, 150, 85, 70),
+    Item(12, 1, RW, "Lowest Limit Voltage", 50, 250, 60, 60),
+    Item(13, 1, RW, "Highest Limit Voltage", 50, 250, 190, 140),
+    Item(14, 2, RW, "Max Torque", 0, 1023, 1023, 1023),
+    Item(16, 1, RW, "Status Return Level", 0, 2, 2, 2),
+    Item(17, 1, RW, "Alarm LED", 0, 127, 4, 36),
+    Item(18, 1, RW, "Alarm Shutdown", 0, 127, 4, 36),
+    Item(19, 1, RW, "reserved (EEPROM)", 0, 1, 0, 0),
+    Item(20, 2, R, "Down Calibration", None, None, RUNTIME, RUNTIME),
+    Item(22, 2, R, "Up Calibration", None, None, RUNTIME, RUNTIME),
+    Item(24, 1, RW, "Torque Enable", 0, 1, 0, 0),
+    Item(25, 1, RW, "LED", 0, 1, 0, 0),
+    Item(26, 1, RW, "CW Compliance Margin", 0, 254, 0, 1),
+    Item(27, 1, RW, "CCW Compliance Margin", 0, 254, 0, 1),
+    Item(28, 1, RW, "CW Compliance Slope", 1, 254, 32, 32),
+    Item(29, 1, RW, "CCW Compliance Slope", 1, 254, 32, 32),
+    Item(30, 2, RW, "Goal Position", 0, 1023, RUNTIME, RUNTIME),
+    Item(32, 2, RW, "Moving Speed", 0, 1023, 0, 0),
+    Item(34, 2, RW, "Torque Limit", 0, 1023, RUNTIME, RUNTIME),
+    Item(36, 2, R, "Present Position", None, None, RUNTIME, RUNTIME),
+    Item(38, 2, R, "Present Speed", None, None, RUNTIME, RUNTIME),
+    Item(40, 2, R, "Present Load", None, None, RUNTIME, RUNTIME),
+    Item(42, 1, R, "Present Voltage", None, None, RUNTIME, RUNTIME),
+    Item(43, 1, R, "Present Temperature", None, None, RUNTIME, RUNTIME),
+    Item(44, 1, RW, "Registered Instruction", 0, 1, 0, 0),
+    Item(45, 1, NONE, "reserved", None, None, 0, 0),
+    Item(46, 1, R, "Moving", None, None, 0, 0),
+    Item(47, 1, RW, "Lock", 1, 1, 0, 0),
+    Item(48, 2, RW, "Punch", 0, 1023, 32, 32),
+]
+BY_ADDR = {it.addr: it for it in TABLE}
+LAST_ADDR = 49          # a READ/WRITE window may not reach past this address
+EEPROM_END = 24         # 0..23 EEPROM, 24..49 RAM
+
+# Error byte bits
+ERR_VOLTAGE = 0x01
+ERR_ANGLE = 0x02
+ERR_OVERHEAT = 0x04
+ERR_RANGE = 0x08
+ERR_CHECKSUM = 0x10
+ERR_OVERLOAD = 0x20
+ERR_INSTRUCTION = 0x40
+
+# Addresses by name
+ID, BAUD, RDT, CW_LIMIT, CCW_LIMIT = 3, 4, 5, 6, 8
+TEMP_LIMIT, LOW_VOLT, HIGH_VOLT, MAX_TORQUE, SRL = 11, 12, 13, 14, 16
+ALARM_LED, ALARM_SHUTDOWN = 17, 18
+TORQUE_ENABLE, LED = 24, 25
+CW_MARGIN, CCW_MARGIN, CW_SLOPE, CCW_SLOPE = 26, 27, 28, 29
+GOAL, SPEED, TORQUE_LIMIT = 30, 32, 34
+PRESENT_POSITION, PRESENT_SPEED, PRESENT_LOAD = 36, 38, 40
+PRESENT_VOLTAGE, PRESENT_TEMPERATURE = 42, 43
+REGISTERED, MOVING, LOCK, PUNCH = 44, 46, 47, 48
+
+
+def default(item, profile):
+    return item.default_ax12 if profile == "ax12" else item.default_ax12a
+
+
+def baud_of(value):
+    """Baud Rate register value -> bits per second (POLICY: 2 000 000 / (value + 1))."""
+    return 2_000_000 / (value + 1)
+
+
+def parse_ids(spec):
+    """'1-6' -> [1..6]; '1,3,5-7' -> [1, 3, 5, 6, 7]."""
+    out = []
+    for part in str(spec).split(","):
+        if "-" in part:
+            a, b = part.split("-")
+            out.extend(range(int(a), int(b) + 1))
+        else:
+            out.append(int(part))
+    return out

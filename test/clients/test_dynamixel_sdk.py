@@ -1,0 +1,575 @@
+"""ROBOTIS DynamixelSDK 4.1.0 (Protocol 1.0), unmodified, against emulated AX-12 servos.
+
+Every expectation comes from POLICY.md (and docs/protocol.md where POLICY is silent).
+"""
+import time
+
+import pytest
+from dynamixel_sdk import (COMM_RX_TIMEOUT, COMM_SUCCESS, GroupSyncWrite, PacketHandler,
+                           PortHandler)
+from dynamixel_sdk.robotis_def import BROADCAST_ID, DXL_HIBYTE, DXL_LOBYTE
+
+import ax12_policy as P
+
+BAUD_1M = 1_000_000
+
+
+class Bus:
+    """One SDK port + Protocol 1.0 packet handler, with the checks every test repeats."""
+
+    def __init__(self, path, baud=BAUD_1M):
+        self.port = PortHandler(path)
+        assert self.port.openPort(), f"openPort({path}) failed"
+        assert self.port.setBaudRate(baud), f"setBaudRate({baud}) refused"
+        self.ph = PacketHandler(1.0)
+
+    def close(self):
+        self.port.closePort()
+
+    def _check(self, what, result, error, want_error=0):
+        assert result == COMM_SUCCESS, f"{what}: {self.ph.getTxRxResult(result)} ({result})"
+        assert error == want_error, (f"{what}: error byte 0x{error:02x}, expected "
+                                     f"0x{want_error:02x} {self.ph.getRxPacketError(error)}")
+
+    def ping(self, dxl_id):
+        model, result, error = self.ph.ping(self.port, dxl_id)
+        self._check(f"ping({dxl_id})", result, error)
+        return model
+
+    def answers(self, dxl_id):
+        _, result, _ = self.ph.ping(self.port, dxl_id)
+        return result == COMM_SUCCESS
+
+    def read(self, dxl_id, addr, size=None, want_error=0):
+        size = size or P.BY_ADDR[addr].size
+        fn = self.ph.read1ByteTxRx if size == 1 else self.ph.read2ByteTxRx
+        value, result, error = fn(self.port, dxl_id, addr)
+        self._check(f"read{size}(id {dxl_id}, addr {addr})", result, error, want_error)
+        return value
+
+    def write(self, dxl_id, addr, value, size=None, want_error=0):
+        size = size or P.BY_ADDR[addr].size
+        fn = self.ph.write1ByteTxRx if size == 1 else self.ph.write2ByteTxRx
+        result, error = fn(self.port, dxl_id, addr, value)
+        self._check(f"write{size}(id {dxl_id}, addr {addr}, {value})", result, error, want_error)
+
+    def write_no_reply(self, dxl_id, addr, value, size=None):
+        """WRITE without waiting for a status packet (Status Return Level < 2)."""
+        size = size or P.BY_ADDR[addr].size
+        fn = self.ph.write1ByteTxOnly if size == 1 else self.ph.write2ByteTxOnly
+        assert fn(self.port, dxl_id, addr, value) == COMM_SUCCESS
+        settle(self.port)
+
+    def raw(self, dxl_id, instruction, params=()):
+        """Any instruction through the SDK's own framing (txRxPacket); returns (result, error)."""
+        pkt = [0, 0, dxl_id, len(params) + 2, instruction, *params, 0]
+        rx, result, error = self.ph.txRxPacket(self.port, pkt)
+        return rx, result, error
+
+
+def settle(port, seconds=0.02):
+    """Let any reply still on its way arrive, then drop it (the SDK would otherwise attribute
+    a late status packet of the same ID to the next instruction)."""
+    time.sleep(seconds)
+    port.clearPort()
+
+
+@pytest.fixture
+def bus_factory():
+    buses = []
+
+    def make(path, baud=BAUD_1M):
+        b = Bus(path, baud)
+        buses.append(b)
+        return b
+
+    yield make
+    for b in buses:
+        b.close()
+
+
+@pytest.fixture
+def one(emulators, bus_factory):
+    """One factory-fresh servo, ID 1, profile ax12."""
+    emu = emulators(ids="1")
+    return bus_factory(emu.path)
+
+
+# ---------------------------------------------------------------------------------------------
+# Ping and reading
+# ---------------------------------------------------------------------------------------------
+
+def test_ping_reports_model_number_12(one):
+    assert one.ping(1) == 12
+
+
+def test_ping_of_an_absent_id_times_out(one):
+    model, result, error = one.ph.ping(one.port, 2)
+    assert result == COMM_RX_TIMEOUT, one.ph.getTxRxResult(result)
+
+
+@pytest.mark.parametrize("profile", ["ax12", "ax12a"])
+def test_every_address_reads_its_factory_default(emulators, bus_factory, profile):
+    bus = bus_factory(emulators(ids="1", profile=profile).path)
+    for item in P.TABLE:
+        want = P.default(item, profile)
+        value = bus.read(1, item.addr)
+        if want is not P.RUNTIME:
+            assert value == want, f"{item.name} (addr {item.addr}) = {value}, default {want}"
+    # Power-up: Goal Position = Present Position, Torque Limit = Max Torque.
+    assert abs(bus.read(1, P.GOAL) - bus.read(1, P.PRESENT_POSITION)) <= 2
+    assert bus.read(1, P.TORQUE_LIMIT) == bus.read(1, P.MAX_TORQUE)
+    assert 0 <= bus.read(1, P.PRESENT_POSITION) <= 1023
+
+
+def test_every_address_reads_with_read1_and_read2(one):
+    """READ 1 byte at 0..49 and 2 bytes at 0..48 all succeed with no error, and agree with one
+    READ of the whole table (for the items that do not change on their own)."""
+    table, result, error = one.ph.readTxRx(one.port, 1, 0, 50)
+    one._check("read(0, 50)", result, error)
+    assert len(table) == 50
+    live = set(range(36, 44)) | {46}     # Present*, Moving
+    for addr in range(0, 50):
+        v1 = one.read(1, addr, size=1)
+        if addr not in live:
+            assert v1 == table[addr], f"read1 addr {addr}: {v1} vs table {table[addr]}"
+    for addr in range(0, 49):
+        v2 = one.read(1, addr, size=2)
+        if addr not in live and addr + 1 not in live:
+            assert v2 == table[addr] | table[addr + 1] << 8, f"read2 addr {addr}"
+
+
+def test_read_window_past_address_49_is_a_range_error_with_no_data(one):
+    # The SDK's read2ByteTxRx would index a missing second byte; readTxRx shows the packet.
+    data, result, error = one.ph.readTxRx(one.port, 1, 49, 2)
+    assert result == COMM_SUCCESS
+    assert error == P.ERR_RANGE
+    # No parameters: the SDK's slice [5:7] of a 6-byte status packet holds only the checksum.
+    assert len(data) <= 1
+    data, result, error = one.ph.readTxRx(one.port, 1, 0, 51)
+    assert (result, error) == (COMM_SUCCESS, P.ERR_RANGE)
+
+
+def test_read_of_length_zero_is_a_range_error(one):
+    data, result, error = one.ph.readTxRx(one.port, 1, 0, 0)
+    assert (result, error) == (COMM_SUCCESS, P.ERR_RANGE)
+
+
+# ---------------------------------------------------------------------------------------------
+# Writing every writable register
+# ---------------------------------------------------------------------------------------------
+
+def _writable_values(bus):
+    """A valid value, different from the factory default, for every writable address, chosen
+    so that no alarm condition starts (limits keep bracketing the present readings)."""
+    volts = bus.read(1, P.PRESENT_VOLTAGE)
+    temp = bus.read(1, P.PRESENT_TEMPERATURE)
+    assert 50 < volts < 250, f"Present Voltage {volts}"
+    return {
+        P.RDT: 10,
+        P.CW_LIMIT: 100,
+        P.CCW_LIMIT: 900,
+        P.TEMP_LIMIT: max(temp + 10, 100),
+        P.LOW_VOLT: max(50, volts - 5),
+        P.HIGH_VOLT: min(250, volts + 5),
+        P.MAX_TORQUE: 800,
+        P.ALARM_LED: 0x25,
+        P.ALARM_SHUTDOWN: 0x25,
+        19: 1,
+        P.TORQUE_ENABLE: 1,
+        P.LED: 1,
+        P.CW_MARGIN: 5,
+        P.CCW_MARGIN: 6,
+        P.CW_SLOPE: 20,        # stored as written; it acts as 32
+        P.CCW_SLOPE: 100,      # acts as 128
+        P.GOAL: 600,
+        P.SPEED: 300,
+        P.TORQUE_LIMIT: 700,
+        P.REGISTERED: 0,
+        P.PUNCH: 100,
+    }
+
+
+SPECIAL = {P.ID, P.BAUD, P.SRL, P.LOCK}   # tested on their own below
+
+
+def test_every_writable_register_takes_a_valid_value_and_reads_it_back(one):
+    # Park the goal in the middle first, so new angle limits never put it outside.
+    one.write(1, P.GOAL, 512)
+    values = _writable_values(one)
+    writable = [it for it in P.TABLE if it.access == P.RW and it.addr not in SPECIAL]
+    assert sorted(values) == sorted(it.addr for it in writable)
+    originals = {}
+    for it in writable:
+        originals[it.addr] = one.read(1, it.addr)
+        one.write(1, it.addr, values[it.addr])
+        got = one.read(1, it.addr)
+        assert got == values[it.addr], f"{it.name} (addr {it.addr}): wrote {values[it.addr]}, read {got}"
+    one.write(1, P.TORQUE_ENABLE, 0)
+    # EEPROM items go back to what they were.
+    for it in writable:
+        if it.addr < P.EEPROM_END:
+            one.write(1, it.addr, originals[it.addr])
+            assert one.read(1, it.addr) == originals[it.addr], it.name
+
+
+def test_eeprom_writes_survive_a_power_cycle_and_ram_does_not(emulators, bus_factory):
+    emu = emulators(ids="1")
+    bus = bus_factory(emu.path)
+    bus.write(1, P.RDT, 10)
+    bus.write(1, P.CCW_LIMIT, 900)
+    bus.write(1, P.LED, 1)
+    bus.write(1, P.PUNCH, 100)
+    bus.close()
+    emu.restart()
+    bus = bus_factory(emu.path)
+    assert bus.read(1, P.RDT) == 10
+    assert bus.read(1, P.CCW_LIMIT) == 900
+    assert bus.read(1, P.LED) == 0
+    assert bus.read(1, P.PUNCH) == 32
+
+
+def test_one_byte_of_a_16_bit_item_may_be_written_alone(one):
+    one.write(1, P.GOAL, 0x0123)
+    one.write(1, P.GOAL, 0x45, size=1)                 # low byte only
+    assert one.read(1, P.GOAL) == 0x0145
+    one.write(1, P.GOAL + 1, 0x02, size=1)             # high byte only
+    assert one.read(1, P.GOAL) == 0x0245
+    # The range check applies to the resulting 16-bit value: 0x0445 > 1023.
+    one.write(1, P.GOAL + 1, 0x04, size=1, want_error=P.ERR_RANGE)
+    assert one.read(1, P.GOAL) == 0x0245
+
+
+# ---------------------------------------------------------------------------------------------
+# Range Error (0x08): nothing is written
+# ---------------------------------------------------------------------------------------------
+
+OUT_OF_RANGE = [
+    (P.ID, 254), (P.BAUD, 255), (P.RDT, 255), (P.CW_LIMIT, 1024), (P.CCW_LIMIT, 1024),
+    (P.TEMP_LIMIT, 151), (P.LOW_VOLT, 49), (P.LOW_VOLT, 251), (P.HIGH_VOLT, 49),
+    (P.HIGH_VOLT, 251), (P.MAX_TORQUE, 1024), (P.SRL, 3), (P.ALARM_LED, 128),
+    (P.ALARM_SHUTDOWN, 128), (19, 2), (P.TORQUE_ENABLE, 2), (P.LED, 2), (P.CW_MARGIN, 255),
+    (P.CCW_MARGIN, 255), (P.CW_SLOPE, 0), (P.CCW_SLOPE, 255), (P.GOAL, 1024),
+    (P.SPEED, 1024), (P.TORQUE_LIMIT, 1024), (P.REGISTERED, 2), (P.LOCK, 0), (P.PUNCH, 1024),
+    # read-only and reserved addresses, even with the value they already hold
+    (0, 12), (2, 1), (10, 0), (20, 0), (22, 0), (P.PRESENT_POSITION, 0), (P.PRESENT_SPEED, 0),
+    (P.PRESENT_LOAD, 0), (P.PRESENT_VOLTAGE, 0), (P.PRESENT_TEMPERATURE, 0), (45, 0),
+    (P.MOVING, 1),
+]
+
+
+@pytest.mark.parametrize("addr,value", OUT_OF_RANGE,
+                         ids=[f"{P.BY_ADDR[a].name}={v}" for a, v in OUT_OF_RANGE])
+def test_out_of_range_write_is_a_range_error_and_changes_nothing(module_bus, addr, value):
+    bus = module_bus
+    before = bus.read(1, addr)
+    bus.write(1, addr, value, want_error=P.ERR_RANGE)
+    if addr not in range(36, 44):
+        assert bus.read(1, addr) == before
+    assert bus.ping(1) == 12        # the error is an event: the next status packet is clean
+
+
+@pytest.fixture(scope="module")
+def module_bus(module_emulators):
+    """One servo shared by the Range Error cases: a rejected write changes nothing."""
+    emu = module_emulators(ids="1")
+    bus = Bus(emu.path)
+    yield bus
+    bus.close()
+
+
+def test_write_window_past_address_49_is_a_range_error(one):
+    result, error = one.ph.writeTxRx(one.port, 1, 49, 2, [1, 0])
+    assert (result, error) == (COMM_SUCCESS, P.ERR_RANGE)
+
+
+def test_write_is_atomic_one_bad_item_rejects_the_whole_packet(one):
+    goal = one.read(1, P.GOAL)
+    new_goal = 700 if goal != 700 else 300
+    # Goal Position (valid) + Moving Speed 1024 (invalid in joint mode), one packet.
+    data = [DXL_LOBYTE(new_goal), DXL_HIBYTE(new_goal), DXL_LOBYTE(1024), DXL_HIBYTE(1024)]
+    result, error = one.ph.writeTxRx(one.port, 1, P.GOAL, 4, data)
+    assert (result, error) == (COMM_SUCCESS, P.ERR_RANGE)
+    assert one.read(1, P.GOAL) == goal
+    assert one.read(1, P.SPEED) == 0
+
+
+# ---------------------------------------------------------------------------------------------
+# Angle Limit (0x02): the goal is stored, the bit is a condition
+# ---------------------------------------------------------------------------------------------
+
+def test_goal_outside_the_angle_limits_is_stored_with_the_angle_limit_bit(one):
+    one.write(1, P.GOAL, 512)
+    one.write(1, P.CW_LIMIT, 200)
+    one.write(1, P.CCW_LIMIT, 800)
+    one.write(1, P.GOAL, 100, want_error=P.ERR_ANGLE)
+    # Stored, and the condition holds in every status packet while the goal lies outside.
+    assert one.read(1, P.GOAL, want_error=P.ERR_ANGLE) == 100
+    _, result, error = one.raw(1, 0x01)            # PING
+    assert (result, error) == (COMM_SUCCESS, P.ERR_ANGLE)
+    one.write(1, P.GOAL, 900, want_error=P.ERR_ANGLE)
+    one.write(1, P.GOAL, 500)                      # inside again: the bit clears
+    assert one.read(1, P.GOAL) == 500
+    # Moving a limit so that the stored goal falls outside raises the condition too.
+    one.write(1, P.CW_LIMIT, 600, want_error=P.ERR_ANGLE)
+    one.write(1, P.CW_LIMIT, 0)
+    assert one.read(1, P.CW_LIMIT) == 0
+
+
+def test_any_goal_in_wheel_mode_sets_the_angle_limit_bit(one):
+    one.write(1, P.CCW_LIMIT, 0)                   # CW = CCW = 0: wheel mode
+    one.write(1, P.GOAL, 512, want_error=P.ERR_ANGLE)
+    assert one.read(1, P.GOAL, want_error=P.ERR_ANGLE) == 512
+    # Moving Speed accepts 0..2047 in wheel mode.
+    one.write(1, P.SPEED, 1024 + 300, want_error=P.ERR_ANGLE)
+    assert one.read(1, P.SPEED, want_error=P.ERR_ANGLE) == 1324
+    one.write(1, P.SPEED, 0, want_error=P.ERR_ANGLE)
+    one.write(1, P.CCW_LIMIT, 1023)                # back to joint mode: goal 512 is inside
+    assert one.read(1, P.GOAL) == 512
+
+
+# ---------------------------------------------------------------------------------------------
+# Status Return Level
+# ---------------------------------------------------------------------------------------------
+
+def test_status_return_level_1_answers_read_only_and_0_answers_ping_only(one):
+    one.write(1, P.SRL, 1)                         # answered: the old level (2) applies
+    assert one.read(1, P.SRL) == 1
+    result, _ = one.ph.write1ByteTxRx(one.port, 1, P.LED, 1)
+    assert result == COMM_RX_TIMEOUT               # WRITE: no reply at level 1 ...
+    assert one.read(1, P.LED) == 1                 # ... but applied
+    one.write_no_reply(1, P.SRL, 0)
+    _, result, _ = one.ph.read1ByteTxRx(one.port, 1, P.SRL)
+    assert result == COMM_RX_TIMEOUT               # READ: no reply at level 0
+    _, result, error = one.raw(1, 0x01)            # PING still answered
+    assert (result, error) == (COMM_SUCCESS, 0)
+    one.write_no_reply(1, P.SRL, 2)
+    assert one.read(1, P.SRL) == 2
+    one.write(1, P.LED, 0)
+
+
+# ---------------------------------------------------------------------------------------------
+# Instructions: REG_WRITE / ACTION, RESET, unknown
+# ---------------------------------------------------------------------------------------------
+
+def test_reg_write_then_action_applies_the_registered_write(one):
+    goal = one.read(1, P.GOAL)
+    new_goal = 300 if goal != 300 else 700
+    result, error = one.ph.regWriteTxRx(one.port, 1, P.GOAL, 2,
+                                        [DXL_LOBYTE(new_goal), DXL_HIBYTE(new_goal)])
+    assert (result, error) == (COMM_SUCCESS, 0)
+    assert one.read(1, P.REGISTERED) == 1
+    assert one.read(1, P.GOAL) == goal             # not yet
+    assert one.ph.action(one.port, 1) == COMM_SUCCESS
+    assert one.read(1, P.GOAL) == new_goal
+    assert one.read(1, P.REGISTERED) == 0
+
+
+def test_action_with_nothing_registered_is_an_instruction_error(one):
+    # The SDK's action() returns no error byte; txRxPacket sends the same ACTION packet.
+    _, result, error = one.raw(1, 0x05)
+    assert (result, error) == (COMM_SUCCESS, P.ERR_INSTRUCTION)
+
+
+def test_reg_write_is_validated_at_once_and_a_new_one_replaces_the_old(one):
+    result, error = one.ph.regWriteTxRx(one.port, 1, P.GOAL, 2, [0x00, 0x04])   # 1024
+    assert (result, error) == (COMM_SUCCESS, P.ERR_RANGE)
+    assert one.read(1, P.REGISTERED) == 0
+    one.ph.regWriteTxRx(one.port, 1, P.LED, 1, [1])
+    result, error = one.ph.regWriteTxRx(one.port, 1, P.PUNCH, 2, [64, 0])
+    assert (result, error) == (COMM_SUCCESS, 0)
+    assert one.ph.action(one.port, 1) == COMM_SUCCESS
+    assert one.read(1, P.PUNCH) == 64
+    assert one.read(1, P.LED) == 0                 # replaced, never applied
+
+
+def test_writing_0_to_registered_instruction_discards_the_registered_write(one):
+    one.ph.regWriteTxRx(one.port, 1, P.LED, 1, [1])
+    assert one.read(1, P.REGISTERED) == 1
+    one.write(1, P.REGISTERED, 0)
+    assert one.read(1, P.REGISTERED) == 0
+    _, result, error = one.raw(1, 0x05)
+    assert (result, error) == (COMM_SUCCESS, P.ERR_INSTRUCTION)
+    assert one.read(1, P.LED) == 0
+
+
+def test_broadcast_action_applies_every_servos_registered_write(emulators, bus_factory):
+    ids = P.parse_ids("1-6")
+    bus = bus_factory(emulators(ids="1-6").path)
+    for i in ids:
+        result, error = bus.ph.regWriteTxRx(bus.port, i, P.GOAL, 2, [DXL_LOBYTE(100 + 50 * i),
+                                                                     DXL_HIBYTE(100 + 50 * i)])
+        assert (result, error) == (COMM_SUCCESS, 0), f"id {i}"
+    assert bus.ph.action(bus.port, BROADCAST_ID) == COMM_SUCCESS
+    settle(bus.port)
+    for i in ids:
+        assert bus.read(i, P.GOAL) == 100 + 50 * i, f"id {i}"
+        assert bus.read(i, P.REGISTERED) == 0, f"id {i}"
+
+
+def test_unknown_instruction_is_an_instruction_error(one):
+    _, result, error = one.raw(1, 0x07)
+    assert (result, error) == (COMM_SUCCESS, P.ERR_INSTRUCTION)
+
+
+def test_bulk_read_is_not_an_ax12_instruction(emulators, bus_factory):
+    """BULK_READ (0x92) goes to the broadcast ID: an AX-12 does not answer it.
+    (The SDK's GroupBulkRead cannot send it for Protocol 1.0 in 4.1.0: it calls
+    bulkReadTx with four arguments; the packet handler's bulkReadTx is used directly.)"""
+    bus = bus_factory(emulators(ids="1-2").path)
+    assert bus.ph.bulkReadTx(bus.port, [2, 1, P.GOAL, 2, 2, P.GOAL], 6) == COMM_SUCCESS
+    _, result, _ = bus.ph.readRx(bus.port, 1, 2)
+    assert result == COMM_RX_TIMEOUT
+    assert bus.ping(1) == 12 and bus.ping(2) == 12
+
+
+def test_factory_reset_restores_defaults_and_id_1(emulators, bus_factory):
+    emu = emulators(ids="7")
+    bus = bus_factory(emu.path)
+    bus.write(7, P.RDT, 10)
+    bus.write(7, P.CCW_LIMIT, 900)
+    bus.write(7, P.LED, 1)
+    result, error = bus.ph.factoryReset(bus.port, 7)   # the reply comes from ID 7
+    assert (result, error) == (COMM_SUCCESS, 0), bus.ph.getTxRxResult(result)
+    settle(bus.port)
+    assert bus.ping(1) == 12
+    assert not bus.answers(7)
+    for item in P.TABLE:
+        want = P.default(item, "ax12")
+        if item.addr < P.EEPROM_END and want is not P.RUNTIME:
+            assert bus.read(1, item.addr) == want, item.name
+    # Persisted: still ID 1 after a power cycle.
+    bus.close()
+    emu.restart()
+    bus = bus_factory(emu.path)
+    assert bus.ping(1) == 12
+    assert bus.read(1, P.RDT) == 250
+
+
+def test_factory_reset_after_every_eeprom_item_changed_is_answered_in_time(emulators,
+                                                                         bus_factory):
+    """POLICY: the reply starts Return Delay Time after the instruction's last byte, so the
+    SDK's factoryReset() (34 ms timeout) gets its status packet however much EEPROM the reset
+    has to rewrite."""
+    bus = bus_factory(emulators(ids="1").path)
+    bus.write(1, P.GOAL, 512)
+    values = _writable_values(bus)
+    for addr in (P.RDT, P.CW_LIMIT, P.CCW_LIMIT, P.TEMP_LIMIT, P.LOW_VOLT, P.HIGH_VOLT,
+                 P.MAX_TORQUE, P.ALARM_LED, P.ALARM_SHUTDOWN, 19):
+        bus.write(1, addr, values[addr])
+    t0 = time.perf_counter()
+    result, error = bus.ph.factoryReset(bus.port, 1)
+    elapsed_ms = (time.perf_counter() - t0) * 1e3
+    assert (result, error) == (COMM_SUCCESS, 0), (
+        f"factoryReset: {bus.ph.getTxRxResult(result)} after {elapsed_ms:.1f} ms")
+    settle(bus.port, 0.2)
+    assert bus.read(1, P.RDT) == 250
+    assert bus.read(1, P.CCW_LIMIT) == 1023
+
+
+# ---------------------------------------------------------------------------------------------
+# ID and baud changes
+# ---------------------------------------------------------------------------------------------
+
+def test_id_change_replies_with_the_old_id_then_answers_at_the_new_one(emulators, bus_factory):
+    bus = bus_factory(emulators(ids="3").path)
+    bus.write(3, P.ID, 9)          # the SDK only accepts a status packet from ID 3
+    settle(bus.port)
+    assert bus.ping(9) == 12
+    assert bus.read(9, P.ID) == 9
+    assert not bus.answers(3)
+
+
+@pytest.mark.parametrize("value,host_baud", [(34, 57600), (3, 500000), (207, 9600)],
+                         ids=["57142bps", "500kbps", "9615bps"])
+def test_baud_change_then_reconnect_at_the_new_rate(emulators, bus_factory, value, host_baud):
+    assert abs(P.baud_of(value) - host_baud) / host_baud < 0.03
+    path = emulators(ids="1").path
+    bus = bus_factory(path)
+    bus.write(1, P.BAUD, value)    # answered at the old rate (1 Mbps)
+    settle(bus.port)
+    assert bus.port.setBaudRate(host_baud)
+    assert bus.ping(1) == 12
+    assert bus.read(1, P.BAUD) == value
+    # At the old rate nothing gets through any more.
+    assert bus.port.setBaudRate(BAUD_1M)
+    assert not bus.answers(1)
+    # Back to 1 Mbps, set from the new rate.
+    assert bus.port.setBaudRate(host_baud)
+    bus.write(1, P.BAUD, 1)
+    settle(bus.port)
+    assert bus.port.setBaudRate(BAUD_1M)
+    assert bus.ping(1) == 12
+
+
+# ---------------------------------------------------------------------------------------------
+# Several servos on one bus: SYNC_WRITE
+# ---------------------------------------------------------------------------------------------
+
+def test_ping_finds_every_servo_on_a_multi_servo_bus(emulators, bus_factory):
+    bus = bus_factory(emulators(ids="1-6").path)
+    for i in P.parse_ids("1-6"):
+        assert bus.ping(i) == 12
+        assert bus.read(i, P.ID) == i
+    assert not bus.answers(7)
+
+
+def test_group_sync_write_reaches_every_servo(emulators, bus_factory):
+    ids = P.parse_ids("1-6")
+    bus = bus_factory(emulators(ids="1-6").path)
+    sw = GroupSyncWrite(bus.port, bus.ph, P.GOAL, 2)
+    for i in ids:
+        goal = 200 + 100 * i
+        assert sw.addParam(i, [DXL_LOBYTE(goal), DXL_HIBYTE(goal)])
+    assert sw.txPacket() == COMM_SUCCESS
+    settle(bus.port)               # broadcast: no status packets
+    for i in ids:
+        assert bus.read(i, P.GOAL) == 200 + 100 * i, f"id {i}"
+
+    # Goal Position and Moving Speed together (4 bytes per servo).
+    sw4 = GroupSyncWrite(bus.port, bus.ph, P.GOAL, 4)
+    for i in ids:
+        sw4.addParam(i, [DXL_LOBYTE(1000 - 10 * i), DXL_HIBYTE(1000 - 10 * i),
+                         DXL_LOBYTE(50 * i), DXL_HIBYTE(50 * i)])
+    assert sw4.txPacket() == COMM_SUCCESS
+    settle(bus.port)
+    for i in ids:
+        assert bus.read(i, P.GOAL) == 1000 - 10 * i, f"id {i}"
+        assert bus.read(i, P.SPEED) == 50 * i, f"id {i}"
+
+
+def test_sync_write_slice_out_of_range_is_dropped_for_that_servo_only(emulators, bus_factory):
+    bus = bus_factory(emulators(ids="1-2").path)
+    goal1 = bus.read(1, P.GOAL)
+    sw = GroupSyncWrite(bus.port, bus.ph, P.GOAL, 2)
+    sw.addParam(1, [0x00, 0x04])           # 1024: out of range for servo 1
+    sw.addParam(2, [0x20, 0x01])           # 288: fine for servo 2
+    assert sw.txPacket() == COMM_SUCCESS
+    settle(bus.port)
+    assert bus.read(1, P.GOAL) == goal1
+    assert bus.read(2, P.GOAL) == 288
+
+
+# ---------------------------------------------------------------------------------------------
+# Lock (profile ax12)
+# ---------------------------------------------------------------------------------------------
+
+def test_lock_allows_only_addresses_24_to_35_until_a_power_cycle(emulators, bus_factory):
+    emu = emulators(ids="1")
+    bus = bus_factory(emu.path)
+    bus.write(1, P.LOCK, 1)
+    assert bus.read(1, P.LOCK) == 1
+    bus.write(1, P.LED, 1)
+    bus.write(1, P.GOAL, 400)
+    bus.write(1, P.TORQUE_LIMIT, 500)
+    bus.write(1, P.RDT, 10, want_error=P.ERR_RANGE)
+    bus.write(1, P.PUNCH, 64, want_error=P.ERR_RANGE)
+    bus.write(1, P.LOCK, 1, want_error=P.ERR_RANGE)
+    assert bus.read(1, P.RDT) == 250
+    result, error = bus.ph.factoryReset(bus.port, 1)
+    assert (result, error) == (COMM_SUCCESS, P.ERR_INSTRUCTION)
+    bus.close()
+    emu.restart()
+    bus = bus_factory(emu.path)
+    assert bus.read(1, P.LOCK) == 0
+    bus.write(1, P.RDT, 10)
