@@ -21,6 +21,7 @@
  * image written, and only then the reply sent, so the reply proves the value is stored.
  */
 #include <avr/interrupt.h>
+#include <util/atomic.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -67,6 +68,12 @@ static bool reply_waits_for_nvm; /* response is loaded; send it once the image i
 static uint8_t after_reply;      /* DXL_AFTER_* to apply once the reply has left */
 
 static uint8_t adc_slot;
+/* PING sniff: one that has matched some bytes ends after SNIFF_MAX_MS (a PING at 9600 baud
+ * takes about 6 ms; the finder's gap timeout is 100 ms). */
+#define SNIFF_MAX_MS 20u
+static uint8_t sniff_age_ms;
+/* Control ticks run since power-up (wrapping): a host reads it by symbol to count missed ticks. */
+volatile uint16_t control_tick_count;
 static uint8_t boot_blink_ms_left = BOOT_BLINK_MS;
 static uint8_t boot_blink_phase;
 
@@ -127,9 +134,47 @@ static void on_bad_checksum(const dxl_packet_t *packet) {
 /* The PING reply is rebuilt whenever the link is idle and nothing is armed (so no ISR reads
  * it): after every packet handled, every reply sent and every control tick, so it always
  * shows the table and conditions of the moment. */
+static bool link_free(void);
+static uint8_t sniff_head; /* uart_rx_tail when the PING sniff started */
+
+/* Starts the RX ISR's PING sniff when nothing is held or under way: the finder holds no byte,
+ * the ring is empty, the link idle and nothing armed, so the next byte is where the finder
+ * would start its candidate (the sniffer never answers a packet the finder would not see). */
+static __attribute__((noinline)) void sniff_start(void) {
+  /* Callers: nothing armed. */
+  if (link_free() && finder.fill == finder.release && uart_sniff == UART_SNIFF_OFF) {
+    uart_reply_load(ping_reply.bytes, DXL_PING_REPLY_BYTES, ping_reply.delay_us);
+    sniff_head = uart_rx_tail;
+    (void)uart_sniff_start(servo.table[CT_ADDR_ID]);
+  }
+}
+
+/* A sniff that has matched bytes is left alone: its PING is under way with this reply. One
+ * still at byte 0 keeps running (stopping it would miss a PING that starts meanwhile): the
+ * ISR needs 6 byte times from there to read the reply, far more than the rebuild takes, and
+ * the reload is atomic. */
 static __attribute__((noinline)) void refresh_ping_reply(void) {
-  if (!armed && uart_reply_state() == UART_REPLY_IDLE) {
+  const uint8_t sniff = uart_sniff;
+  if (!armed && uart_reply_state() == UART_REPLY_IDLE && (sniff == 0 || sniff == UART_SNIFF_OFF)) {
     dxl_servo_ping_reply(&servo, &ping_reply);
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+      if (uart_sniff < UART_SNIFF_ARMED) {
+        uart_reply_load(ping_reply.bytes, DXL_PING_REPLY_BYTES, ping_reply.delay_us);
+      }
+    }
+    sniff_start();
+  }
+}
+
+/* The RX ISR armed the PING reply at the LENGTH byte: the main loop takes it over as if it
+ * had armed it itself (the checksum is the 6th byte from sniff_head). */
+static void adopt_sniffed(void) {
+  if (!armed && uart_sniff == UART_SNIFF_ARMED) {
+    uart_sniff = UART_SNIFF_OFF;
+    armed = true;
+    armed_ping = true;
+    armed_to_come = (uint8_t)(sniff_head + DXL_PING_REPLY_BYTES - uart_rx_tail);
+    armed_ms = timebase_ms();
   }
 }
 
@@ -145,8 +190,8 @@ static __attribute__((noinline)) void arm(const uint8_t *bytes, uint8_t length, 
 static void try_arm(void) {
   dxl_packet_t packet;
   uint8_t checksum;
-  if (!dxl_finder_awaiting_checksum(&finder, &packet, &checksum)) {
-    return;
+  if (!dxl_finder_awaiting_checksum(&finder, &packet, &checksum) || uart_sniff != UART_SNIFF_OFF) {
+    return; /* a PING the RX ISR sniffed (armed, or about to be: adopted in service_rx) */
   }
   dxl_servo_prepare(&servo, &packet, &response);
   if (response.length == 0 || response.after != 0) {
@@ -156,62 +201,17 @@ static void try_arm(void) {
   arm(response.bytes, response.length, response.delay_us, checksum, 1u);
 }
 
-/* PING sniffing: the fast reply path at 1 Mbps, where the finder cannot examine a PING's
- * bytes before its checksum arrives. While the finder holds nothing, bytes that could be the
- * start FF FF ID 02 of a PING this servo answers stay in the ring (held) instead of going to
- * the finder. Once FF FF ID 02 are in, ping_reply is armed for the checksum byte 5 bytes
- * after the oldest; then the bytes go to the finder as usual. Given ID and LENGTH 2, only a
- * PING with a good checksum matches (the instruction byte is not even looked at), so anything
- * else takes the normal path. The finder would frame exactly these bytes as the candidate (it
- * holds nothing before them), so the sniffer never answers a packet the finder would not see. Bytes are held at most
- * PING_HOLD_MS; then they go to the finder stamped with the millisecond the hold began. */
-#define PING_HEADER_BYTES 4u /* FF FF ID 02 */
-#define PING_HOLD_MS 2u
-static const DXL_FLASH uint8_t ping_start[PING_HEADER_BYTES] = {DXL_HEADER_BYTE, DXL_HEADER_BYTE, 0 /* ID */,
-                                                                DXL_PACKET_MIN_LENGTH};
-static uint8_t held_bytes; /* bytes held in the ring, 0 = no hold */
-static uint16_t held_since_ms;
-
-/* True while the ring's bytes stay there; may arm ping_reply. Looks only at bytes that came
- * since the last pass (the hold's time limit is service_tick's). */
-static __attribute__((noinline)) bool hold_for_ping(void) {
-  const uint8_t waiting = uart_rx_waiting();
-  if (held_bytes == 0) {
-    if (finder.fill != finder.release) {
-      return false;
-    }
-    held_since_ms = timebase_ms();
-  }
-  if (waiting > PING_HEADER_BYTES + 1u) { /* 5: the instruction is in */
-    return false;
-  }
-  for (uint8_t i = held_bytes; i < waiting && i < PING_HEADER_BYTES; i++) {
-    const uint8_t b = uart_rx_peek(i);
-    if (i == 2u ? !dxl_servo_answers(&servo, b, DXL_INST_PING) : b != ping_start[i]) {
-      return false;
-    }
-  }
-  if (waiting < PING_HEADER_BYTES) {
-    held_bytes = waiting;
-    return true;
-  }
-  const uint8_t checksum = (uint8_t)~(uart_rx_peek(2) + DXL_PACKET_MIN_LENGTH + DXL_INST_PING);
-  armed_ping = true;
-  arm(ping_reply.bytes, DXL_PING_REPLY_BYTES, ping_reply.delay_us, checksum, DXL_PING_REPLY_BYTES);
-  return false;
-}
-
 static bool link_free(void) { return uart_reply_state() == UART_REPLY_IDLE && !reply_waits_for_nvm; }
 
 /* Moves every byte waiting in the ring into the finder (as far as it has room), stamped with
  * the current millisecond. Batching keeps up with 1 Mbps, which one finder pass per byte
  * does not; the finder examines the batch in one dxl_finder_next() pass. */
 static bool push_waiting_bytes(void) {
-  const uint16_t now_ms = held_bytes != 0 ? held_since_ms : timebase_ms();
+  const uint16_t now_ms = timebase_ms();
   bool pushed = false;
   uint8_t byte;
-  held_bytes = 0;
-  while (finder.fill < DXL_PACKET_MAX_BYTES && uart_rx_pop(&byte)) {
+  /* Stops at a sniffed PING's arming: its checksum byte goes through the armed path. */
+  while (finder.fill < DXL_PACKET_MAX_BYTES && uart_sniff != UART_SNIFF_ARMED && uart_rx_pop(&byte)) {
     dxl_finder_push(&finder, byte, now_ms);
     pushed = true;
   }
@@ -222,6 +222,7 @@ static void service_rx(void) {
   dxl_packet_t packet;
   uint8_t byte;
   for (;;) {
+    adopt_sniffed();
     if (armed) {
       if (!uart_rx_pop(&byte)) {
         return; /* the checksum byte is still on the wire */
@@ -262,20 +263,17 @@ static void service_rx(void) {
           return; /* back to the main loop (watchdog, tick) between batches */
         }
       }
-    } else if (hold_for_ping()) {
-      return;
-    } else if (armed) {
-      held_bytes = 0;
-      continue; /* hold_for_ping armed ping_reply: the bytes go through the armed branch */
     } else if (push_waiting_bytes()) {
       finder_dirty = true;
     } else {
+      sniff_start();
       return;
     }
   }
 }
 
 static void service_reply(void) {
+  adopt_sniffed(); /* before DONE is taken for a reply of its own */
   if (reply_waits_for_nvm) {
     if (!nvm_busy()) {
       reply_waits_for_nvm = false;
@@ -326,10 +324,16 @@ static void service_tick(void) {
   if (armed && (uint16_t)(now_ms - armed_ms) >= ARM_TIMEOUT_MS && uart_reply_disarm()) {
     armed = false;
   }
-  if (!armed) {
-    if (held_bytes != 0 && (uint16_t)(now_ms - held_since_ms) >= PING_HOLD_MS) {
-      finder_dirty |= push_waiting_bytes(); /* a hold ends after PING_HOLD_MS */
+  /* A sniff whose PING stopped part-way ends, long before the finder's gap timeout
+   * could split what it matched. */
+  if (uart_sniff != 0 && uart_sniff < UART_SNIFF_ARMED) {
+    if (++sniff_age_ms >= SNIFF_MAX_MS) {
+      (void)uart_sniff_stop(UART_SNIFF_ARMED - 1u);
     }
+  } else {
+    sniff_age_ms = 0;
+  }
+  if (!armed) {
     dxl_finder_poll(&finder, now_ms);
   }
   if (!adc_busy()) {
@@ -338,6 +342,8 @@ static void service_tick(void) {
     adc_start(adc_sequence[adc_slot]);
   }
   control_tick(&servo);
+  __asm__ __volatile__("" ::: "memory"); /* the RX ISR may have armed meanwhile */
+  control_tick_count++;
   update_led();
   refresh_ping_reply();
 }
@@ -357,8 +363,8 @@ static inline bool work_from_interrupt(void) {
   if (armed) {
     return uart_rx_available();
   }
-  return state == UART_REPLY_DONE ||
-         (state == UART_REPLY_IDLE && !reply_waits_for_nvm && uart_rx_waiting() != held_bytes);
+  return uart_sniff == UART_SNIFF_ARMED || state == UART_REPLY_DONE ||
+         (state == UART_REPLY_IDLE && !reply_waits_for_nvm && uart_rx_available());
 }
 
 static void power_up(void) {

@@ -40,6 +40,8 @@ volatile uint16_t uart_tx_delay_ticks; /* Return Delay Time in Timer1 ticks */
 volatile uint8_t uart_tx_first;       /* bytes[0], so the start path is one LDS */
 volatile uint8_t uart_tx_next;        /* UDRE ISR: index of the next byte to write */
 volatile uint16_t uart_tx_start_tick; /* WAITING: TIMER1_COMPA spins until TCNT1 reaches it */
+volatile uint8_t uart_sniff = UART_SNIFF_OFF; /* RX ISR and main (ATOMIC) */
+volatile uint8_t uart_sniff_id;
 static const uint8_t *tx_bytes;
 static uint8_t tx_length;
 
@@ -172,4 +174,28 @@ void uart_reply_start(void) {
 
 void uart_reply_start_now(void) {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { reply_send_first(); }
+}
+
+bool uart_sniff_start(uint8_t id) {
+  bool started = false;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    if (uart_tx_state == UART_REPLY_IDLE && uart_rx_head == uart_rx_tail) {
+      uart_sniff_id = id;
+      uart_sniff = 0;
+      started = true;
+    }
+  }
+  return started;
+}
+
+bool uart_sniff_stop(uint8_t max_pos) {
+  uint8_t s;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    s = uart_sniff;
+    if (s <= max_pos) {
+      s = UART_SNIFF_OFF;
+      uart_sniff = s;
+    }
+  }
+  return s == UART_SNIFF_OFF;
 }

@@ -49,6 +49,12 @@
 #define UART_REPLY_SENDING 3
 #define UART_REPLY_DONE 4
 
+/* PING sniff state (uart_sniff): 0..3 = header bytes FF FF ID 02 matched so far; ARMED =
+ * the RX ISR armed the loaded reply at the LENGTH byte (main loop: take it over); OFF. */
+#define UART_SNIFF_ARMED 4
+#define UART_SNIFF_OFF 0xFF
+#define DXL_HEADER_BYTE_ASM 0xFF
+
 /* How an armed reply starts (uart_tx_mode), chosen by uart_reply_load from the delay. */
 #define UART_START_NOW 0   /* Return Delay Time 0: the RX ISR writes UDR0 at once */
 #define UART_START_SPIN 1  /* too close for OCR1A: the RX ISR spins on TCNT1 */
@@ -118,6 +124,17 @@ static inline bool uart_rx_pop(uint8_t *byte) {
 }
 
 static inline uint8_t uart_reply_state(void) { return uart_tx_state; }
+
+/* PING sniff (uart_rx.S). uart_sniff_start: with the reply loaded (the ready PING reply),
+ * state IDLE and the ring empty, the RX ISR matches the next bytes against FF FF id 02 and
+ * arms the loaded reply at the LENGTH byte (uart_sniff = UART_SNIFF_ARMED; the checksum is
+ * the 6th byte after the ring position at the start). Returns false when a byte came first.
+ * uart_sniff_stop: ends a sniff that has matched at most max_pos bytes; true when no sniff
+ * runs afterwards (false: it has matched more, or armed). */
+extern volatile uint8_t uart_sniff;
+extern volatile uint8_t uart_sniff_id;
+bool uart_sniff_start(uint8_t id);
+bool uart_sniff_stop(uint8_t max_pos);
 
 /* Sets the status packet to send next (bytes[0..length), length >= 2) and its delay after
  * the RX interrupt of the instruction's last byte (dxl_response_t.delay_us: 2 us x Return

@@ -14,6 +14,11 @@
  *     TIMER  uart_tx_start_tick = start, OCR1A = start - UART_COMPA_EARLY_TICKS;
  *            TIMER1_COMPA spins from there to start, then as NOW.
  *
+ * PING sniff (uart_sniff 0..3, set up by the main loop with the ring empty): the bytes
+ * FF FF ID 02 are matched as they arrive; at the LENGTH the loaded reply (the ready PING
+ * reply) is ARMED as above, so neither the main loop's latency nor its long passes (the
+ * control tick) delay it. Any other byte ends the sniff (UART_SNIFF_OFF).
+ *
  * Registers: r18:r19 tick, r24 scratch, r25 the byte, Z. r1 is not assumed to be 0.
  * Cycles, counting the 4-cycle interrupt response and the vector JMP (docs/firmware.md):
  * common path 78 (simavr measures 69: it charges no response); an armed NOW start writes
@@ -23,6 +28,41 @@
 #include "uart.h"
 
   .section .text.uart_rx_isr, "ax", @progbits
+/* (Placed before the vector for the branch range.) PING sniff: byte r24 (0..3) of FF FF ID 02. At the ID the checksum that completes the
+ * PING, ~(ID + 2 + 1) = 0xFC - ID, goes to uart_tx_checksum (unused while IDLE); at the
+ * LENGTH the loaded reply is armed with skip 1 (the instruction passes, the checksum
+ * compares), so the reply starts from the checksum's own RX interrupt. */
+.Lsniff:
+  cpi r24, 2
+  breq 6f
+  brsh 7f
+  cpi r25, DXL_HEADER_BYTE_ASM       /* 0, 1: header */
+  brne .Lsniff_off
+  rjmp .Lsniff_next
+6:
+  lds r30, uart_sniff_id             /* 2: this servo's ID */
+  cp r25, r30
+  brne .Lsniff_off
+  ldi r30, 0xFC
+  sub r30, r25
+  sts uart_tx_checksum, r30
+  rjmp .Lsniff_next
+7:
+  cpi r25, 2                         /* 3: LENGTH 2 */
+  brne .Lsniff_off
+  ldi r30, 1
+  sts uart_tx_skip, r30
+  ldi r30, UART_REPLY_ARMED
+  sts uart_tx_state, r30
+.Lsniff_next:
+  inc r24                            /* 3 -> UART_SNIFF_ARMED */
+  sts uart_sniff, r24
+  rjmp .Lstore
+.Lsniff_off:
+  ldi r24, UART_SNIFF_OFF
+  sts uart_sniff, r24
+  rjmp .Lstore
+
   .global USART_RX_vect
 USART_RX_vect:
   push r18
@@ -44,6 +84,9 @@ USART_RX_vect:
   breq 1f                            /* saturate at 255 */
   sts uart_rx_line_error_count, r24
 1:
+  lds r24, uart_sniff
+  cpi r24, UART_SNIFF_ARMED
+  brlo .Lsniff                       /* a PING sniff is under way (reply IDLE) */
   lds r24, uart_tx_state
   cpi r24, UART_REPLY_ARMED
   breq .Larmed
