@@ -59,6 +59,7 @@ static void pending_push(bus_node_t *n, const bus_byte_t *b) {
   n->pending_count++;
 }
 
+
 static void pending_pop(bus_node_t *n) {
   n->pending_head = (n->pending_head + 1u) % n->pending_cap;
   n->pending_count--;
@@ -78,6 +79,7 @@ sim_cycles_t bus_send(bus_t *bus, int node, uint8_t value, sim_cycles_t start) {
   n->tx_end = b.end;
   n->tx_bytes++;
   pending_push(n, &b);
+  __atomic_add_fetch(&bus->pending_total, 1u, __ATOMIC_RELAXED); /* senders may run on two threads */
   return b.end;
 }
 
@@ -98,16 +100,20 @@ void bus_release(bus_t *bus, int node, sim_cycles_t at) {
     if (active_end(b) > at && b->cut_at == SIM_CYCLES_NEVER) {
       b->cut_at = at;
       b->flags |= BUS_RX_TRUNCATED;
-      bus->truncated_bytes++;
+      __atomic_add_fetch(&bus->truncated_bytes, 1u, __ATOMIC_RELAXED);
     }
     keep++;
   }
+  __atomic_sub_fetch(&bus->pending_total, n->pending_count - keep, __ATOMIC_RELAXED);
   n->pending_count = keep;
   n->tx_end = keep ? pending_at(n, keep - 1u)->end : (n->tx_end < at ? n->tx_end : at);
 }
 
 sim_cycles_t bus_next_finalize(const bus_t *bus) {
   sim_cycles_t next = SIM_CYCLES_NEVER;
+  if (!bus->pending_total) {
+    return next;
+  }
   for (size_t i = 0; i < bus->node_count; i++) {
     const bus_node_t *n = &bus->nodes[i];
     if (n->pending_count) {
@@ -120,7 +126,7 @@ sim_cycles_t bus_next_finalize(const bus_t *bus) {
   return next;
 }
 
-void bus_baud_changed(bus_t *bus) { bus->lookahead = 0; }
+void bus_baud_changed(bus_t *bus) { __atomic_store_n(&bus->lookahead, 0u, __ATOMIC_RELAXED); }
 
 sim_cycles_t bus_lookahead(bus_t *bus) {
   if (bus->lookahead) {
@@ -270,7 +276,7 @@ static void finalize_one(bus_t *bus, bus_byte_t x) {
 }
 
 void bus_finalize(bus_t *bus, sim_cycles_t now) {
-  for (;;) {
+  while (bus->pending_total) {
     /* The pending head with the earliest end among all senders. */
     int best = -1;
     sim_cycles_t best_end = SIM_CYCLES_NEVER;
@@ -290,6 +296,7 @@ void bus_finalize(bus_t *bus, sim_cycles_t now) {
     bus_node_t *n = &bus->nodes[best];
     const bus_byte_t x = *pending_at(n, 0);
     pending_pop(n);
+    __atomic_sub_fetch(&bus->pending_total, 1u, __ATOMIC_RELAXED);
     finalize_one(bus, x);
   }
 }

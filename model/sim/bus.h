@@ -96,6 +96,7 @@ typedef struct {
   bus_node_t nodes[BUS_MAX_NODES];
   size_t node_count;
   sim_cycles_t lookahead; /* cached bus_lookahead(); 0 = recompute */
+  size_t pending_total;   /* bytes started and not finalized, over all nodes */
   uint64_t collided_bytes;
   uint64_t mismatched_deliveries;
   uint64_t truncated_bytes;

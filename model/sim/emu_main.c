@@ -307,6 +307,8 @@ static void print_stats(const world_t *world, const pty_bridge_t *pty, const pac
   }
 }
 
+static sim_cycles_t sim_of_wall(void *ctx, double wall_us) { return pacing_sim_at(ctx, wall_us); }
+
 static int serve(int argc, char **argv) {
   serve_options_t o;
   const int parsed = parse_serve_options(argc, argv, &o);
@@ -382,8 +384,14 @@ static int serve(int argc, char **argv) {
   double lag_report_at_us = pacing_wall_us() + LAG_REPORT_PERIOD_US;
   double lag_reported_us = 0.0;
   while (!stop_requested) {
-    world_run_until(world, world->now + slice);
-    (void)pty_bridge_pump(&pty);
+    /* Up to the next client byte's arrival at most (it enters the wire at that exact time). */
+    sim_cycles_t until = world->now + slice;
+    const sim_cycles_t next_input = pty_bridge_next_input(&pty);
+    if (next_input > world->now && next_input < until) {
+      until = next_input;
+    }
+    world_run_until(world, until);
+    (void)pty_bridge_pump(&pty, o.realtime ? sim_of_wall : NULL, &pacing);
     if (!warned_persist) {
       for (size_t i = 0; i < world->servo_count; i++) {
         if (world->servos[i]->persist_errors) {
@@ -392,8 +400,9 @@ static int serve(int argc, char **argv) {
         }
       }
     }
-    if (pacing_wait(&pacing, world->now, pty.master_fd)) {
-      (void)pty_bridge_pump(&pty);
+    world_park(world);
+    if (pacing_wait(&pacing, world->now, pty_bridge_wake_fd(&pty))) {
+      (void)pty_bridge_pump(&pty, o.realtime ? sim_of_wall : NULL, &pacing);
     }
     if (o.realtime && pacing_wall_us() >= lag_report_at_us) {
       /* At most one line per period, only when the lag grew past the threshold. */

@@ -49,6 +49,11 @@ bool pacing_wait(pacing_t *pacing, sim_cycles_t sim_now, int fd) {
   return r > 0 && (pfd.revents & POLLIN);
 }
 
+sim_cycles_t pacing_sim_at(const pacing_t *pacing, double wall_us) {
+  const double since = wall_us - pacing->wall0_us;
+  return pacing->sim0 + (since > 0.0 ? (sim_cycles_t)(since * SIM_CYCLES_PER_US) : 0u);
+}
+
 double pacing_speed(const pacing_t *pacing, sim_cycles_t sim_now) {
   const double wall = pacing_wall_us() - pacing->started_wall_us;
   return wall > 0.0 ? sim_cycles_to_us(sim_now - pacing->started_sim) / wall : 0.0;

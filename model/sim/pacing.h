@@ -39,6 +39,10 @@ double pacing_ahead_us(const pacing_t *pacing, sim_cycles_t sim_now);
  * Returns true when woken by fd. Fast mode: returns false at once. */
 bool pacing_wait(pacing_t *pacing, sim_cycles_t sim_now, int fd);
 
+/* The simulated time that corresponds to wall time wall_us (pacing_wall_us) by the current
+ * reference (never before the reference's simulated time). */
+sim_cycles_t pacing_sim_at(const pacing_t *pacing, double wall_us);
+
 /* Simulated seconds per wall second since pacing_start. */
 double pacing_speed(const pacing_t *pacing, sim_cycles_t sim_now);
 

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include <avr_eeprom.h>
+#include <avr_timer.h>
 #include <avr_uart.h>
 #include <sim_avr.h>
 #include <sim_core.h>
@@ -67,6 +68,9 @@ static void eecr_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) {
   if (starts_write) {
     servo->eeprom_writes++;
     servo->dirty = true; /* persisted at the end of this world step */
+    if (servo->persist_due) {
+      __atomic_store_n(servo->persist_due, true, __ATOMIC_RELAXED); /* world.c may run servos on 2 threads */
+    }
     servo->eeprom_busy = true;
     servo->last_write_at = avr->cycle;
     avr_cycle_timer_register(avr, SIM_EEPROM_WRITE_CYCLES - 1u, eeprom_write_done, servo);
@@ -166,6 +170,12 @@ servo_t *servo_create(const servo_config_t *config, bus_t *bus, char *err, size_
     servo_destroy(servo);
     return NULL;
   }
+  for (avr_io_t *io = avr->io_port; io && servo->timer_count < sizeof(servo->timers) / sizeof(servo->timers[0]);
+       io = io->next) {
+    if (io->kind && strcmp(io->kind, "timer") == 0) {
+      servo->timers[servo->timer_count++] = io;
+    }
+  }
   servo->board.on_reset = servo_was_reset;
   servo->board.on_reset_ctx = servo;
   servo->ready = true;
@@ -192,12 +202,15 @@ void servo_destroy(servo_t *servo) {
  * instruction (if awake), the due cycle timers, and the interrupts. A sleeping core's clock
  * is advanced by servo_run_until() instead, exactly to its next timer (simavr would jump one
  * cycle past it, and from there to the following timer within the same call). */
-static void run_step(avr_t *avr) {
+static inline __attribute__((always_inline)) void step_core(avr_t *avr) {
   avr_flashaddr_t new_pc = avr->pc;
   if (avr->state == cpu_Running) {
     new_pc = avr_run_one(avr);
   }
-  (void)avr_cycle_timer_process(avr);
+  const avr_cycle_timer_slot_p first = avr->cycle_timers.timer;
+  if (first && first->when <= avr->cycle) { /* what avr_cycle_timer_process() checks first */
+    (void)avr_cycle_timer_process(avr);
+  }
   avr->pc = new_pc;
   if (avr->state == cpu_Sleeping && !avr->sreg[S_I]) {
     avr->state = cpu_Done; /* SLEEP with interrupts off: nothing can wake it */
@@ -207,6 +220,8 @@ static void run_step(avr_t *avr) {
     avr_service_interrupts(avr);
   }
 }
+
+static void run_step(avr_t *avr) { step_core(avr); }
 
 /* Busy-time probe: from the instruction at probe_pc (an ISR's entry) until the core sleeps
  * again. An entry while already inside (the work overran into the next period) extends it. */
@@ -249,6 +264,9 @@ void servo_attach_plant(servo_t *servo, const ax12_plant_t *plant) {
   servo->plant = *plant;
   servo->has_plant = true;
   servo->plant_at = servo->avr->cycle;
+  if (servo->plant_due && servo->plant_at + SERVO_PLANT_STEP < *servo->plant_due) {
+    *servo->plant_due = servo->plant_at + SERVO_PLANT_STEP;
+  }
   servo_show_plant(servo);
 }
 
@@ -261,20 +279,63 @@ void servo_step_plant(servo_t *servo, sim_cycles_t now, bool force) {
   servo_show_plant(servo);
 }
 
+/* True when none of the timer module's interrupts is enabled: its events cannot wake the core. */
+static bool timer_quiet(const avr_t *avr, const avr_timer_t *p) {
+  avr_t *a = (avr_t *)avr;
+  if (avr_regbit_get(a, p->overflow.enable) || avr_regbit_get(a, p->icr.enable)) {
+    return false;
+  }
+  for (int i = 0; i < AVR_TIMER_COMP_COUNT; i++) {
+    if (avr_regbit_get(a, p->comp[i].interrupt.enable)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+sim_cycles_t servo_earliest_wake(const servo_t *servo, sim_cycles_t now) {
+  const avr_t *avr = servo->avr;
+  if (servo->halted) {
+    return SIM_CYCLES_NEVER;
+  }
+  if (avr->state != cpu_Sleeping || avr->interrupt_state) {
+    return now;
+  }
+  unsigned quiet = 0;
+  for (unsigned i = 0; i < servo->timer_count; i++) {
+    quiet |= timer_quiet(avr, servo->timers[i]) ? 1u << i : 0u;
+  }
+  for (avr_cycle_timer_slot_p slot = avr->cycle_timers.timer; slot; slot = slot->next) {
+    bool skip = false;
+    for (unsigned i = 0; i < servo->timer_count; i++) {
+      if (slot->param == servo->timers[i]) {
+        skip = (quiet >> i) & 1u;
+        break;
+      }
+    }
+    if (!skip) {
+      return slot->when > now ? slot->when : now;
+    }
+  }
+  return SIM_CYCLES_NEVER;
+}
+
 void servo_run_until(servo_t *servo, sim_cycles_t t) {
   avr_t *avr = servo->avr;
   while (!servo->halted && avr->cycle < t) {
     if (avr->state == cpu_Sleeping) {
       const avr_cycle_timer_slot_p next = avr->cycle_timers.timer;
       if (!next || next->when >= t) {
+        servo->sleep_cycles += t - avr->cycle;
         avr->cycle = t;
         break;
       }
       if (next->when > avr->cycle) {
+        servo->sleep_cycles += next->when - avr->cycle;
         avr->cycle = next->when;
       }
     }
-    run_step(avr);
+    step_core(avr);
     if (servo->probe_pc) {
       probe(servo);
     }

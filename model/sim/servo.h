@@ -71,6 +71,17 @@ typedef struct servo {
   bool has_plant;
   ax12_plant_t plant;
   sim_cycles_t plant_at; /* simulated time the plant has reached */
+  /* Simulated cycles the MCU has spent asleep (SLEEP until an interrupt wakes it): the sum of
+   * the jumps servo_run_until() makes a sleeping core's clock take. Never reset (an MCU reset
+   * keeps it); awake share over an interval = 1 - (difference of sleep_cycles) / elapsed. */
+  uint64_t sleep_cycles;
+  /* The MCU's timer modules (simavr avr_timer_t), for servo_earliest_wake(). */
+  void *timers[4];
+  unsigned timer_count;
+  /* Owned by the world (NULL for a servo on its own): set when an EEPROM byte is written, so
+   * the world polls persistence only then; lowered to the plant's next due time. */
+  bool *persist_due;
+  sim_cycles_t *plant_due;
   /* Busy-time probe (servo_set_probe). */
   uint32_t probe_pc;      /* byte address of an ISR's entry; 0 = off */
   bool probe_inside;
@@ -90,6 +101,13 @@ void servo_destroy(servo_t *servo);
  * boundary at or after t, a sleeping one exactly at t. A sleeping core's clock jumps from
  * one cycle timer to the next (idle firmware costs almost nothing). */
 void servo_run_until(servo_t *servo, sim_cycles_t t);
+
+/* The earliest simulated time at which this MCU may execute an instruction (and so start a
+ * byte on the wire), as far as can be told at `now` without running it: `now` for a running
+ * core or one with an interrupt pending; for a sleeping core the time of its first cycle
+ * timer that can raise an interrupt (timer events of a timer module whose interrupts are all
+ * disabled do not wake it: Timer0's PWM overflows); SIM_CYCLES_NEVER for a halted one. */
+sim_cycles_t servo_earliest_wake(const servo_t *servo, sim_cycles_t now);
 
 /* Persists the EEPROM if a byte was written since the last time. Returns -1 when a write
  * failed (message in last_error), 1 when written, 0 otherwise. */

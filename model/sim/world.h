@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The simulated world: servos and host nodes (test masters, the pty bridge) on one bus, all
- * advanced in lockstep by simulated time in one thread.
+ * advanced in lockstep by simulated time (the servos of a step on one thread or two:
+ * world_set_threads).
  *
  * The step: every MCU runs to a common horizon H, then the bus finalizes the bytes that end
  * within BUS_FINALIZE_MARGIN of H. H is at most bus_lookahead() past now (a byte started in
@@ -10,6 +11,7 @@
 #ifndef SIM_WORLD_H
 #define SIM_WORLD_H
 
+#include <pthread.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -32,6 +34,18 @@ typedef struct world {
   servo_t *servos[WORLD_MAX_SERVOS];
   size_t servo_count;
   uint64_t steps;
+  bool persist_due;       /* a servo wrote an EEPROM byte (servo_t.persist_due) */
+  /* Second thread (world_set_threads): runs servos [split, servo_count) of every step. */
+  bool worker_started;
+  pthread_t worker;
+  size_t split;
+  sim_cycles_t work_until;
+  uint32_t work_gen, done_gen; /* futex words */
+  uint32_t worker_sleeping, main_sleeping;
+  bool worker_stop;
+  bool worker_park; /* world_park(): the worker sleeps without spinning */
+  bool threads_chosen; /* world_set_threads() was called (else AX12_SIM_THREADS at the first run) */
+  sim_cycles_t plant_due; /* no plant needs a step before this (servo_t.plant_due) */
   /* Optional: called after every step with the world's new time (the seam for a physics
    * model: read board_pwm_duty(), step the plant, feed board_set_pot_deg() and friends). */
   void (*after_step)(struct world *world, void *ctx);
@@ -49,6 +63,19 @@ servo_t *world_add_servo(world_t *world, uint8_t id, uint8_t baud_reg, const cha
 /* As world_add_servo with an explicit EEPROM at power-up (tests). */
 servo_t *world_add_servo_with_eeprom(world_t *world, const char *name, const uint8_t *eeprom, size_t len,
                                      char *err, size_t err_len);
+
+/* Runs the servos of each step on `threads` threads (1 or 2). Without a call, the first
+ * world_run_until() takes AX12_SIM_THREADS from the environment (default 1): the second
+ * thread spins between steps, which only pays when two CPUs are free for the simulation (a
+ * client that busy-polls, like DynamixelSDK, or parallel tests make it much slower). Within a step the
+ * servos do not interact (the bus decides deliveries only between steps), so results are the
+ * same, cycle for cycle, on one thread or two. The second thread spins briefly, then sleeps
+ * on a futex between steps. Returns the number in use. */
+unsigned world_set_threads(world_t *world, unsigned threads);
+
+/* About to leave the world alone for a while (real-time pacing sleeps): the second thread
+ * stops spinning and sleeps until the next world_run_until(). */
+void world_park(world_t *world);
 
 /* Advances every node to time t (>= now). */
 void world_run_until(world_t *world, sim_cycles_t t);

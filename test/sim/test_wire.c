@@ -14,6 +14,8 @@
 
 #include <cmocka.h>
 
+#include <sim_avr.h>
+
 #include "eeprom_store.h"
 #include "sim_harness.h"
 
@@ -302,6 +304,86 @@ static void test_an_idle_servo_costs_little_simulation_time(void **state) {
   echo_close(&e);
 }
 
+static void test_an_idle_world_takes_long_steps(void **state) {
+  (void)state;
+  echo_t e;
+  echo_open(&e, 1, NULL);
+  /* The MCU sleeps; only Timer0's PWM overflows are due, and they cannot wake it. */
+  const uint64_t steps = e.world->steps;
+  world_run_until(e.world, e.world->now + sim_ms(100));
+  assert_true(e.world->steps - steps <= 2u);
+  /* ... and the bus still works at exact timing afterwards. */
+  assert_int_equal(send_and_wait(&e, (const uint8_t[]){0x10}, 1, 200), 2);
+  assert_int_equal(master_rx(e.master, 1)->value, 0x11);
+  echo_close(&e);
+}
+
+static void test_sleep_cycles_count_the_time_asleep(void **state) {
+  (void)state;
+  echo_t e;
+  echo_open(&e, 1, NULL);
+  const servo_t *s = e.servo[0];
+  uint64_t asleep = s->sleep_cycles;
+  sim_cycles_t t0 = e.world->now;
+  world_run_until(e.world, t0 + sim_ms(10));
+  const uint64_t idle = s->sleep_cycles - asleep;
+  assert_true(idle <= sim_ms(10));
+  assert_true(idle >= sim_ms(10) - sim_us(5)); /* the echo program sleeps whenever it is idle */
+  /* Echoing a burst keeps it awake part of the time. */
+  asleep = s->sleep_cycles;
+  t0 = e.world->now;
+  uint8_t burst[40];
+  memset(burst, 0x20, sizeof(burst));
+  send_and_wait(&e, burst, sizeof(burst), 100);
+  const uint64_t busy = s->sleep_cycles - asleep;
+  assert_true(busy < e.world->now - t0);
+  assert_true(busy > 0);
+  echo_close(&e);
+}
+
+/* Two threads (world_set_threads) give the same wire, cycle for cycle, as one. */
+static void run_script(echo_t *e) {
+  send_and_wait(e, (const uint8_t[]){0x10}, 1, 200); /* both answer at once: a collision */
+  uint8_t burst[24];
+  for (size_t i = 0; i < sizeof(burst); i++) {
+    burst[i] = (uint8_t)(0x20 + i);
+  }
+  master_rx_clear(e->master);
+  const sim_cycles_t end = master_send(e->master, burst, sizeof(burst));
+  world_run_until(e->world, end + sim_us(400));
+  world_run_until(e->world, e->world->now + sim_ms(3));
+}
+
+static void test_two_threads_give_the_same_wire_as_one(void **state) {
+  (void)state;
+  echo_t one, two;
+  echo_open(&one, 2, NULL);
+  echo_open(&two, 2, NULL);
+  assert_int_equal(world_set_threads(one.world, 1), 1);
+  assert_int_equal(world_set_threads(two.world, 2), 2);
+  run_script(&one);
+  run_script(&two);
+  assert_int_equal(one.world->now, two.world->now);
+  assert_int_equal(master_rx_count(one.master), master_rx_count(two.master));
+  assert_true(master_rx_count(one.master) > 0);
+  for (size_t i = 0; i < master_rx_count(one.master); i++) {
+    const bus_rx_t *a = master_rx(one.master, i), *b = master_rx(two.master, i);
+    assert_int_equal(a->start, b->start);
+    assert_int_equal(a->end, b->end);
+    assert_int_equal(a->value, b->value);
+    assert_int_equal(a->flags, b->flags);
+  }
+  for (size_t i = 0; i < 2; i++) {
+    assert_int_equal(one.servo[i]->avr->cycle, two.servo[i]->avr->cycle);
+    assert_int_equal(one.servo[i]->sleep_cycles, two.servo[i]->sleep_cycles);
+    assert_int_equal(one.servo[i]->board.link.rx_bytes, two.servo[i]->board.link.rx_bytes);
+    assert_int_equal(one.servo[i]->board.link.tx_bytes, two.servo[i]->board.link.tx_bytes);
+  }
+  assert_int_equal(one.world->bus.collided_bytes, two.world->bus.collided_bytes);
+  echo_close(&one);
+  echo_close(&two);
+}
+
 int main(void) {
   if (access(AX12_WIRE_ECHO_ELF, R_OK) != 0) {
     fprintf(stderr, "missing %s\n", AX12_WIRE_ECHO_ELF);
@@ -320,6 +402,9 @@ int main(void) {
       cmocka_unit_test(test_two_servos_answering_at_once_collide_on_the_wire),
       cmocka_unit_test(test_a_reset_in_the_middle_of_a_reply_cuts_it_and_the_mcu_starts_over),
       cmocka_unit_test(test_an_idle_servo_costs_little_simulation_time),
+      cmocka_unit_test(test_an_idle_world_takes_long_steps),
+      cmocka_unit_test(test_sleep_cycles_count_the_time_asleep),
+      cmocka_unit_test(test_two_threads_give_the_same_wire_as_one),
   };
   return cmocka_run_group_tests_name("sim wire (board test program)", tests, NULL, NULL);
 }
