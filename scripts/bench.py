@@ -160,10 +160,12 @@ def main():
     rdt = run_json([bench, "rdt", elf])
     for key, value in rdt.items():
         r[key] = value
-    row("Return Delay Time", "worst error, RDT 1..254", rdt["rdt_worst_error_us"], "us", "within +-2",
+    row("Return Delay Time", "PING, worst error over RDT 1..254", rdt["rdt_worst_error_us"], "us", "within +-2",
         "rdt_worst_error_us")
-    for v in (1, 10, 250, 254):
-        row("Return Delay Time", "RDT %d worst error" % v, rdt["rdt_%d_worst_error_us" % v], "us", "within +-2")
+    for v in (1, 2, 5, 10, 50, 100, 250, 254):
+        row("Return Delay Time", "RDT %d: PING / 2-byte READ worst error" % v,
+            "%.2f / %.2f" % (rdt["rdt_%d_worst_error_us" % v], rdt["rdt_%d_read_worst_error_us" % v]), "us",
+            "within +-2")
 
     s = run_json([bench, "sustained", elf, "30", "1" if a.quick else "3"])
     row("sustained 1 Mbps", "SYNC_WRITE x 30 servos, simulated", s["simulated_s"], "s", "", "sustained_simulated_s")
@@ -178,6 +180,16 @@ def main():
         row("sustained 1 Mbps", "control ticks missed", s["timer_ticks_expected"] - s["control_ticks_run"], "ticks",
             "0", "sustained_control_ticks_missed")
 
+    try:
+        aw = run_json([bench, "awake", elf])
+        row("firmware CPU", "awake share, idle (torque off)", aw["awake_idle"], "", "", "awake_idle")
+        row("firmware CPU", "awake share, control loop holding", aw["awake_control_loop"], "", "",
+            "awake_control_loop")
+        row("firmware CPU", "awake share, full 1 Mbps bus load", aw["awake_full_bus_load"], "", "< 1",
+            "awake_full_bus_load")
+    except subprocess.CalledProcessError as e:
+        print("bench: awake share not measured: %s" % e, file=sys.stderr)
+
     for n in (1, 18, 30):
         speeds = [run_json([bench, "speed", elf, str(n), "1"]) for _ in range(runs)]
         idle = statistics.median(x["idle_sim_s_per_wall_s"] for x in speeds)
@@ -188,7 +200,7 @@ def main():
 
     ping = sdk_ping_median_ms(emu, fw, 50 if a.quick else 200)
     row("real clients", "DynamixelSDK ping, median", ping, "ms", "", "sdk_ping_median_ms")
-    for n in (18, 30):
+    for n in (1, 18, 30):
         loop = sdk_client_loop(emu, fw, n, 3 if a.quick else 6)
         row("real clients", "%d servos: SYNC_WRITE + %d READs" % (n, n), loop["loops_per_s"], "loops/s", "",
             "sdk_loop_%d_loops_per_s" % n)
@@ -202,11 +214,13 @@ def main():
     report = os.path.join(os.path.dirname(os.path.abspath(__file__)), "model_report")
     if os.path.exists(report):
         try:
-            m = run_json([report, "--json", "--build", a.build])
-            for key, value in m.items():
-                if isinstance(value, (int, float)):
-                    r["model_" + key] = value
-                    row("model", key, value, "", "")
+            m = run_json([report, "--json", "--lab", os.path.join(a.build, "model", "sim", "ax12-lab")])
+            for key, value in sorted(m.items()):
+                r["model_" + key] = value
+                if not key.endswith("_ratio"):
+                    ratio = m.get(key + "_ratio")
+                    row("model (scripts/model_report)", key.replace("_", " "), value, "",
+                        "manual x %.3f" % ratio if ratio is not None else "")
         except (subprocess.CalledProcessError, json.JSONDecodeError, IndexError) as e:
             print("bench: model_report failed: %s" % e, file=sys.stderr)
 

@@ -8,6 +8,8 @@
  *   ax12-bench sustained ELF SERVOS SECONDS back-to-back SYNC_WRITE at 1 Mbps: bytes lost
  *   ax12-bench speed ELF SERVOS SECONDS    simulated seconds per wall second, idle and loaded
  *   ax12-bench stack ELF                   deepest stack after a workload of every instruction
+ *   ax12-bench awake ELF                   share of cycles the MCU is awake: idle, holding
+ *                                          a position (control loop alone), full bus load
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -147,16 +149,21 @@ static void rdt_accuracy(void) {
   double worst_us = 0;
   for (size_t v = 0; v < sizeof values; v++) {
     write_byte(&r, 1, 5, values[v]);
-    double worst_error_us = 0;
-    for (int i = 0; i < 20; i++) {
+    double worst_error_us = 0, worst_read_error_us = 0;
+    for (int i = 0; i < 40; i++) {
       uint8_t p[8];
+      static const uint8_t read_position[2] = {36, 2};
+      const bool read = i % 2 == 1;
       idle_random(&r, &seed);
-      const sim_cycles_t latency = exchange(&r, p, packet(p, 1, 0x01, NULL, 0), 6);
+      const sim_cycles_t latency =
+          read ? exchange(&r, p, packet(p, 1, 0x02, read_position, 2), 8) : exchange(&r, p, packet(p, 1, 0x01, NULL, 0), 6);
       const double error_us = ((double)latency - (double)US(2u * values[v])) / SIM_CYCLES_PER_US;
-      if (latency == 0) die("no reply to a PING", NULL);
-      if (error_us * error_us > worst_error_us * worst_error_us) worst_error_us = error_us;
+      if (latency == 0) die("no reply", NULL);
+      double *worst = read ? &worst_read_error_us : &worst_error_us;
+      if (error_us * error_us > *worst * *worst) *worst = error_us;
     }
-    printf("%s\"rdt_%u_worst_error_us\": %.3f", v ? ", " : "", values[v], worst_error_us);
+    printf("%s\"rdt_%u_worst_error_us\": %.3f, \"rdt_%u_read_worst_error_us\": %.3f", v ? ", " : "", values[v],
+           worst_error_us, values[v], worst_read_error_us);
     if (worst_error_us * worst_error_us > worst_us * worst_us) worst_us = worst_error_us;
   }
   printf(", \"rdt_worst_error_us\": %.3f}\n", worst_us);
@@ -279,6 +286,35 @@ static void speed(unsigned servos, double seconds) {
   rig_close(&r);
 }
 
+/* Awake share of servo 1 over `span`: 1 - cycles asleep / cycles elapsed. */
+static double awake_share_over(rig_t *r, sim_cycles_t span, bool bus_load) {
+  const servo_t *s = r->world->servos[0];
+  const uint64_t asleep0 = s->sleep_cycles;
+  const sim_cycles_t t0 = r->world->now;
+  uint8_t p[200];
+  unsigned packets = 0;
+  while (r->world->now < t0 + span) {
+    if (bus_load && r->master->tx_end <= r->world->now + US(200)) {
+      master_send(r->master, p, sync_write_goals(p, 30, packets++ / 200));
+    }
+    world_run_until(r->world, r->world->now + US(50));
+  }
+  return 1.0 - (double)(s->sleep_cycles - asleep0) / (double)(r->world->now - t0);
+}
+
+static void awake_share(void) {
+  rig_t r;
+  rig_open(&r, 1);
+  const double idle = awake_share_over(&r, MS(1000), false);
+  write_byte(&r, 1, 24, 1); /* torque on: the control loop holds the position */
+  world_run_until(r.world, r.world->now + MS(200));
+  const double holding = awake_share_over(&r, MS(1000), false);
+  const double loaded = awake_share_over(&r, MS(1000), true);
+  printf("{\"awake_idle\": %.4f, \"awake_control_loop\": %.4f, \"awake_full_bus_load\": %.4f}\n", idle, holding,
+         loaded);
+  rig_close(&r);
+}
+
 #define STACK_PAINT_BYTE 0xC5u /* docs/firmware.md: unused RAM is painted at reset */
 
 static void stack_depth(void) {
@@ -321,6 +357,8 @@ int main(int argc, char **argv) {
     rdt_accuracy();
   } else if (strcmp(argv[1], "sustained") == 0 && argc > 4) {
     sustained((unsigned)atoi(argv[3]), atof(argv[4]));
+  } else if (strcmp(argv[1], "awake") == 0) {
+    awake_share();
   } else if (strcmp(argv[1], "stack") == 0) {
     stack_depth();
   } else if (strcmp(argv[1], "speed") == 0 && argc > 4) {
