@@ -35,31 +35,8 @@ static void given_finder(finder_run_t *run, uint16_t start_ms) {
   run->now_ms = start_ms;
 }
 
-/* Pushes bytes at the current time and records every result until DXL_FIND_NONE. */
-static void when_bytes_arrive(finder_run_t *run, const uint8_t *bytes, size_t count) {
-  for (size_t i = 0; i < count; i++) {
-    dxl_finder_push(&run->finder, bytes[i], run->now_ms);
-    dxl_packet_t packet;
-    dxl_find_result_t kind;
-    while ((kind = dxl_finder_next(&run->finder, &packet)) != DXL_FIND_NONE) {
-      assert_true(run->count < MAX_FOUND);
-      found_t *f = &run->found[run->count++];
-      f->kind = kind;
-      f->id = packet.id;
-      f->instruction = packet.instruction;
-      f->param_count = packet.param_count;
-      memcpy(f->params, packet.params, packet.param_count);
-      f->checksum = packet.checksum;
-    }
-  }
-}
-
-#define ARRIVE(run, ...) when_bytes_arrive((run), P(__VA_ARGS__))
-
-/* The line idles until now_ms: poll, then take whatever the bytes before the gap still hold. */
-static void when_line_idles_until(finder_run_t *run, uint16_t now_ms) {
-  run->now_ms = now_ms;
-  dxl_finder_poll(&run->finder, now_ms);
+/* Records every result the finder has until DXL_FIND_NONE. */
+static void take_results(finder_run_t *run) {
   dxl_packet_t packet;
   dxl_find_result_t kind;
   while ((kind = dxl_finder_next(&run->finder, &packet)) != DXL_FIND_NONE) {
@@ -72,6 +49,23 @@ static void when_line_idles_until(finder_run_t *run, uint16_t now_ms) {
     memcpy(f->params, packet.params, packet.param_count);
     f->checksum = packet.checksum;
   }
+}
+
+/* Pushes bytes at the current time and records every result. */
+static void when_bytes_arrive(finder_run_t *run, const uint8_t *bytes, size_t count) {
+  for (size_t i = 0; i < count; i++) {
+    dxl_finder_push(&run->finder, bytes[i], run->now_ms);
+    take_results(run);
+  }
+}
+
+#define ARRIVE(run, ...) when_bytes_arrive((run), P(__VA_ARGS__))
+
+/* The line idles until now_ms: poll, then take whatever the bytes before the gap still hold. */
+static void when_line_idles_until(finder_run_t *run, uint16_t now_ms) {
+  run->now_ms = now_ms;
+  dxl_finder_poll(&run->finder, now_ms);
+  take_results(run);
 }
 
 static void then_found_packet(const finder_run_t *run, size_t index, uint8_t id, uint8_t instruction,
