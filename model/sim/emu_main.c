@@ -162,8 +162,7 @@ static bool parse_uint(const char *text, unsigned max, unsigned *value) {
 /* Returns -1 to go on, else an exit status. */
 static int parse_serve_options(int argc, char **argv, serve_options_t *o) {
   enum { OPT_IDS = 256, OPT_LINK, OPT_STATE_DIR, OPT_PROFILE, OPT_MCU, OPT_BAUD, OPT_REALTIME, OPT_FAST, OPT_ELF,
-         OPT_FIRMWARE_DIR, OPT_STATS, OPT_SUPPLY, OPT_AMBIENT, OPT_ANGLE, OPT_LOAD_TORQUE, OPT_LOAD_SPRING,
-         OPT_LOAD_ARM };
+         OPT_FIRMWARE_DIR, OPT_STATS };
   static const struct option long_options[] = {
       {"ids", required_argument, NULL, OPT_IDS},
       {"link", required_argument, NULL, OPT_LINK},
@@ -176,12 +175,7 @@ static int parse_serve_options(int argc, char **argv, serve_options_t *o) {
       {"elf", required_argument, NULL, OPT_ELF},
       {"firmware-dir", required_argument, NULL, OPT_FIRMWARE_DIR},
       {"stats", no_argument, NULL, OPT_STATS},
-      {"supply", required_argument, NULL, OPT_SUPPLY},
-      {"ambient", required_argument, NULL, OPT_AMBIENT},
-      {"angle", required_argument, NULL, OPT_ANGLE},
-      {"load-torque", required_argument, NULL, OPT_LOAD_TORQUE},
-      {"load-spring", required_argument, NULL, OPT_LOAD_SPRING},
-      {"load-arm", required_argument, NULL, OPT_LOAD_ARM},
+      PLANT_LONG_OPTIONS,
       {"help", no_argument, NULL, 'h'},
       {NULL, 0, NULL, 0},
   };
@@ -245,18 +239,6 @@ static int parse_serve_options(int argc, char **argv, serve_options_t *o) {
     case OPT_STATS:
       o->stats = true;
       break;
-    case OPT_SUPPLY:
-    case OPT_AMBIENT:
-    case OPT_ANGLE:
-    case OPT_LOAD_TORQUE:
-    case OPT_LOAD_SPRING:
-    case OPT_LOAD_ARM: {
-      static const char *const names[] = {"supply", "ambient", "angle", "load-torque", "load-spring", "load-arm"};
-      if (!plant_options_parse(&o->world, names[c - OPT_SUPPLY], optarg, err, sizeof(err))) {
-        return fail_usage("%s", err);
-      }
-      break;
-    }
     case 'h':
       fputs(usage_text, stdout);
       fputs(plant_options_help, stdout);
@@ -264,6 +246,12 @@ static int parse_serve_options(int argc, char **argv, serve_options_t *o) {
     case ':':
       return fail_usage("option %s needs a value", argv[optind - 1]);
     default:
+      if (plant_option_name(c) != NULL) {
+        if (!plant_options_parse(&o->world, plant_option_name(c), optarg, err, sizeof(err))) {
+          return fail_usage("%s", err);
+        }
+        break;
+      }
       return fail_usage("unknown option '%s'", argv[optind - 1]);
     }
   }

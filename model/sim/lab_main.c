@@ -523,19 +523,13 @@ int main(int argc, char **argv) {
     fprintf(stderr, "ax12-lab: unknown KIND '%s' (see ax12-lab --help)\n", kind);
     return EXIT_USAGE;
   }
-  enum { OPT_PROFILE = 256, OPT_FIRMWARE_DIR, OPT_ELF, OPT_SOURCE_R, OPT_SUPPLY, OPT_AMBIENT, OPT_ANGLE,
-         OPT_LOAD_TORQUE, OPT_LOAD_SPRING, OPT_LOAD_ARM };
+  enum { OPT_PROFILE = 256, OPT_FIRMWARE_DIR, OPT_ELF, OPT_SOURCE_R };
   static const struct option long_options[] = {
       {"profile", required_argument, NULL, OPT_PROFILE},
       {"firmware-dir", required_argument, NULL, OPT_FIRMWARE_DIR},
       {"elf", required_argument, NULL, OPT_ELF},
       {"source-r", required_argument, NULL, OPT_SOURCE_R},
-      {"supply", required_argument, NULL, OPT_SUPPLY},
-      {"ambient", required_argument, NULL, OPT_AMBIENT},
-      {"angle", required_argument, NULL, OPT_ANGLE},
-      {"load-torque", required_argument, NULL, OPT_LOAD_TORQUE},
-      {"load-spring", required_argument, NULL, OPT_LOAD_SPRING},
-      {"load-arm", required_argument, NULL, OPT_LOAD_ARM},
+      PLANT_LONG_OPTIONS,
       {"help", no_argument, NULL, 'h'},
       {NULL, 0, NULL, 0},
   };
@@ -571,19 +565,6 @@ int main(int argc, char **argv) {
       opts.source_r_given = true;
       break;
     }
-    case OPT_SUPPLY:
-    case OPT_AMBIENT:
-    case OPT_ANGLE:
-    case OPT_LOAD_TORQUE:
-    case OPT_LOAD_SPRING:
-    case OPT_LOAD_ARM: {
-      static const char *const names[] = {"supply", "ambient", "angle", "load-torque", "load-spring", "load-arm"};
-      if (!plant_options_parse(&opts.world, names[c - OPT_SUPPLY], optarg, err, sizeof(err))) {
-        fprintf(stderr, "ax12-lab: %s\n", err);
-        return EXIT_USAGE;
-      }
-      break;
-    }
     case 'h':
       fputs(usage_text, stdout);
       fputs(plant_options_help, stdout);
@@ -592,6 +573,13 @@ int main(int argc, char **argv) {
       fprintf(stderr, "ax12-lab: option %s needs a value\n", argv[optind - 1]);
       return EXIT_USAGE;
     default:
+      if (plant_option_name(c) != NULL) {
+        if (!plant_options_parse(&opts.world, plant_option_name(c), optarg, err, sizeof(err))) {
+          fprintf(stderr, "ax12-lab: %s\n", err);
+          return EXIT_USAGE;
+        }
+        break;
+      }
       fprintf(stderr, "ax12-lab: unknown option '%s'\n", argv[optind - 1]);
       return EXIT_USAGE;
     }

@@ -54,6 +54,12 @@ static int parse_numbers(const char *text, double *out, int max) {
   return -1; /* more values than allowed */
 }
 
+const char *plant_option_name(int code) {
+  static const char *const names[PLANT_OPT_END - PLANT_OPT_SUPPLY] = {"supply",      "ambient",     "angle",
+                                                                        "load-torque", "load-spring", "load-arm"};
+  return (code >= PLANT_OPT_SUPPLY && code < PLANT_OPT_END) ? names[code - PLANT_OPT_SUPPLY] : NULL;
+}
+
 static bool in_range(double v, double lo, double hi) { return v >= lo && v <= hi; }
 
 bool plant_options_parse(plant_options_t *o, const char *option, const char *value, char *err, size_t err_len) {
