@@ -52,15 +52,15 @@ static const DXL_FLASH uint8_t adc_sequence[] = {ADC_CH_POT, ADC_CH_SUPPLY, ADC_
 
 static dxl_finder_t finder;
 static dxl_servo_t servo;
-static dxl_response_t response; /* the reply being prepared, armed or sent */
-static dxl_ping_reply_t ping_reply; /* the reply to a PING, kept ready (refresh_ping_reply) */
+/* The reply being prepared, armed or sent; while the link is idle it holds the ready reply
+ * to a PING (refresh_ping_reply), whose first bytes FF FF ID also start a streamed reply. */
+static dxl_response_t response;
 
 /* Link state of the main loop; uart_reply_state() is the UART's. */
-static bool armed;               /* response or ping_reply is the reply of the packet whose
-                                    checksum byte is armed_to_come bytes ahead: armed in the
-                                    UART, or already started by it */
+static bool armed;               /* the sniff armed the reply of the packet whose checksum
+                                    byte is armed_to_come bytes ahead; the UART may already
+                                    have started it */
 static uint8_t armed_to_come;    /* bytes still to pop, the checksum included */
-static bool armed_ping;          /* the armed reply is ping_reply: nothing to commit */
 static uint16_t armed_ms;
 static bool finder_dirty;        /* bytes pushed or a result taken since dxl_finder_next() last
                                     said DXL_FIND_NONE */
@@ -68,10 +68,11 @@ static bool reply_waits_for_nvm; /* response is loaded; send it once the image i
 static uint8_t after_reply;      /* DXL_AFTER_* to apply once the reply has left */
 
 static uint8_t adc_slot;
-/* PING sniff: one that has matched some bytes ends after SNIFF_MAX_MS (a PING at 9600 baud
- * takes about 6 ms; the finder's gap timeout is 100 ms). */
+/* Sniff: one that has matched some bytes ends when no byte came for SNIFF_MAX_MS (a byte at
+ * 9600 baud takes about 1 ms; the finder's gap timeout is 100 ms). */
 #define SNIFF_MAX_MS 20u
 static uint8_t sniff_age_ms;
+static uint8_t sniff_seen_head; /* uart_rx_head at the last tick */
 /* Control ticks run since power-up (wrapping): a host reads it by symbol to count missed ticks. */
 volatile uint16_t control_tick_count;
 static uint8_t boot_blink_ms_left = BOOT_BLINK_MS;
@@ -112,6 +113,18 @@ static void send_response(void) {
   }
 }
 
+/* A packet whose reply the sniff started: a PING's ready reply is complete; anything else
+ * streamed its header and waits for the rest (dxl_servo.h "Streamed replies": prepared
+ * replies of such packets are non-empty with nothing after them). */
+static void on_streamed_packet(const dxl_packet_t *packet) {
+  if (packet->instruction != DXL_INST_PING || packet->param_count != 0) {
+    dxl_servo_prepare(&servo, packet, &response);
+    uart_reply_publish(response.length);
+    dxl_servo_commit(&servo, &response);
+  }
+  after_reply = 0;
+}
+
 static void on_packet(const dxl_packet_t *packet) {
   dxl_servo_prepare(&servo, packet, &response);
   if (response.length != 0 && response.after == 0) {
@@ -135,17 +148,15 @@ static void on_bad_checksum(const dxl_packet_t *packet) {
  * it): after every packet handled, every reply sent and every control tick, so it always
  * shows the table and conditions of the moment. */
 static bool link_free(void);
-static uint8_t sniff_head; /* uart_rx_tail when the PING sniff started */
-
-/* Starts the RX ISR's PING sniff when nothing is held or under way: the finder holds no byte,
- * the ring is empty, the link idle and nothing armed, so the next byte is where the finder
- * would start its candidate (the sniffer never answers a packet the finder would not see). */
+/* Starts the RX ISR's sniff when nothing is held or under way: the finder holds no byte, the
+ * ring is empty, the link idle and nothing armed, so the next byte is where the finder would
+ * start its candidate (the sniffer never answers a packet the finder would not see), and every
+ * earlier packet is committed (the sniff decides with the table of the moment). */
 static __attribute__((noinline)) void sniff_start(void) {
   /* Callers: nothing armed. */
   if (link_free() && finder.fill == finder.release && uart_sniff == UART_SNIFF_OFF) {
-    uart_reply_load(ping_reply.bytes, DXL_PING_REPLY_BYTES, ping_reply.delay_us);
-    sniff_head = uart_rx_tail;
-    (void)uart_sniff_start(servo.table[CT_ADDR_ID]);
+    uart_reply_load(response.bytes, DXL_PING_REPLY_BYTES, response.delay_us);
+    (void)uart_sniff_start(servo.table[CT_ADDR_ID], dxl_servo_stream_mask(&servo));
   }
 }
 
@@ -155,93 +166,83 @@ static __attribute__((noinline)) void sniff_start(void) {
  * the reload is atomic. */
 static __attribute__((noinline)) void refresh_ping_reply(void) {
   const uint8_t sniff = uart_sniff;
-  if (!armed && uart_reply_state() == UART_REPLY_IDLE && (sniff == 0 || sniff == UART_SNIFF_OFF)) {
-    dxl_servo_ping_reply(&servo, &ping_reply);
+  if (!armed && link_free() && (sniff == 0 || sniff == UART_SNIFF_OFF)) {
+    /* A sniff at byte 0 needs 5 more byte times before it could start this reply. */
+    dxl_servo_ping_reply(&servo, &response);
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-      if (uart_sniff < UART_SNIFF_ARMED) {
-        uart_reply_load(ping_reply.bytes, DXL_PING_REPLY_BYTES, ping_reply.delay_us);
+      if (uart_sniff == 0 || uart_sniff == UART_SNIFF_OFF) {
+        uart_reply_load(response.bytes, DXL_PING_REPLY_BYTES, response.delay_us);
       }
     }
     sniff_start();
   }
 }
 
-/* The RX ISR armed the PING reply at the LENGTH byte: the main loop takes it over as if it
- * had armed it itself (the checksum is the 6th byte from sniff_head). */
+/* The RX ISR armed a reply at a packet's last byte but one: the main loop takes it over (the
+ * checksum is the byte before uart_sniff_end). */
 static void adopt_sniffed(void) {
   if (!armed && uart_sniff == UART_SNIFF_ARMED) {
     uart_sniff = UART_SNIFF_OFF;
     armed = true;
-    armed_ping = true;
-    armed_to_come = (uint8_t)(sniff_head + DXL_PING_REPLY_BYTES - uart_rx_tail);
+    armed_to_come = (uint8_t)(uart_sniff_end - uart_rx_tail);
     armed_ms = timebase_ms();
   }
 }
 
-static __attribute__((noinline)) void arm(const uint8_t *bytes, uint8_t length, uint16_t delay_us, uint8_t checksum, uint8_t to_come) {
-  uart_reply_load(bytes, length, delay_us);
-  armed = uart_reply_arm(checksum, (uint8_t)(to_come - 1u)) != UART_REPLY_IDLE;
-  armed_to_come = to_come;
-  armed_ms = timebase_ms();
-}
-
-/* When only the checksum byte is missing, prepare the reply and arm it in the UART, unless
- * it is silent or after != 0 (EEPROM, baud, reset: handled when the packet completes). */
-static void try_arm(void) {
-  dxl_packet_t packet;
-  uint8_t checksum;
-  if (!dxl_finder_awaiting_checksum(&finder, &packet, &checksum) || uart_sniff != UART_SNIFF_OFF) {
-    return; /* a PING the RX ISR sniffed (armed, or about to be: adopted in service_rx) */
-  }
-  dxl_servo_prepare(&servo, &packet, &response);
-  if (response.length == 0 || response.after != 0) {
-    return;
-  }
-  armed_ping = false;
-  arm(response.bytes, response.length, response.delay_us, checksum, 1u);
-}
-
 static bool link_free(void) { return uart_reply_state() == UART_REPLY_IDLE && !reply_waits_for_nvm; }
 
-/* Moves every byte waiting in the ring into the finder (as far as it has room), stamped with
- * the current millisecond. Batching keeps up with 1 Mbps, which one finder pass per byte
- * does not; the finder examines the batch in one dxl_finder_next() pass. */
-static bool push_waiting_bytes(void) {
+/* Moves up to max_bytes waiting in the ring into the finder (as far as it has room), stamped
+ * with the current millisecond, in one batch (a few cycles a byte); the finder examines them
+ * in one dxl_finder_next() pass. Returns how many moved. */
+static uint8_t push_waiting_bytes(uint8_t max_bytes) {
   const uint16_t now_ms = timebase_ms();
-  bool pushed = false;
-  uint8_t byte;
-  /* Stops at a sniffed PING's arming: its checksum byte goes through the armed path. */
-  while (finder.fill < DXL_PACKET_MAX_BYTES && uart_sniff != UART_SNIFF_ARMED && uart_rx_pop(&byte)) {
-    dxl_finder_push(&finder, byte, now_ms);
-    pushed = true;
+  uint16_t room;
+  uint8_t *slot = dxl_finder_push_slot(&finder, &room, now_ms);
+  uint8_t tail = uart_rx_tail;
+  uint8_t count = (uint8_t)(uart_rx_head - tail);
+  if (!armed && uart_sniff == UART_SNIFF_ARMED) {
+    /* Read after the head: the sniff armed at a byte already counted. Its packet's bytes go
+     * through the armed path (adopt_sniffed), which stops at the checksum. */
+    return 0;
   }
-  return pushed;
+  if (count > max_bytes) {
+    count = max_bytes;
+  }
+  if (count > room) {
+    count = (uint8_t)room;
+  }
+  for (uint8_t n = count; n != 0; n--) {
+    *slot++ = uart_rx_ring[tail++ & UART_RX_RING_MASK];
+  }
+  uart_rx_tail = tail;
+  dxl_finder_pushed(&finder, count, now_ms);
+  return count;
 }
 
 static void service_rx(void) {
   dxl_packet_t packet;
-  uint8_t byte;
   for (;;) {
     adopt_sniffed();
     if (armed) {
-      if (!uart_rx_pop(&byte)) {
+      const uint8_t moved = push_waiting_bytes(armed_to_come);
+      if (moved == 0) {
         return; /* the checksum byte is still on the wire */
       }
-      dxl_finder_push(&finder, byte, timebase_ms());
-      finder_dirty = true;
-      if (--armed_to_come != 0) {
-        continue; /* a byte before the checksum (a PING's instruction) */
+      armed_to_come = (uint8_t)(armed_to_come - moved);
+      if (armed_to_come != 0) {
+        /* Examine them now, so only the checksum is left when it comes: the finder sees the
+         * same candidate as the sniff (both started empty), so this is DXL_FIND_NONE. */
+        (void)dxl_finder_next(&finder, &packet);
+        continue;
       }
+      finder_dirty = true;
       armed = false;
       if (uart_reply_state() != UART_REPLY_IDLE) {
-        /* The UART matched the checksum and started the armed reply: the finder completes
-         * the same packet (DXL_FIND_PACKET); commit what was prepared (a PING: nothing). */
+        /* The UART matched the checksum and started the reply: the finder completes the same
+         * packet (DXL_FIND_PACKET), the checksum being the last byte pushed. */
         (void)dxl_finder_next(&finder, &packet);
-        if (!armed_ping) {
-          dxl_servo_commit(&servo, &response);
-        }
-        after_reply = 0;
-        finder_dirty = false; /* the checksum was the last byte pushed */
+        on_streamed_packet(&packet);
+        finder_dirty = false;
       }
       continue; /* a mismatch is handled below like any byte */
     }
@@ -258,13 +259,12 @@ static void service_rx(void) {
         refresh_ping_reply();
       } else {
         finder_dirty = false;
-        try_arm();
-        if (!armed) {
-          return; /* back to the main loop (watchdog, tick) between batches */
-        }
+        return; /* back to the main loop (watchdog, tick) between batches */
       }
-    } else if (push_waiting_bytes()) {
+    } else if (push_waiting_bytes(UINT8_MAX) != 0) {
       finder_dirty = true;
+    } else if (uart_sniff == UART_SNIFF_ARMED) {
+      continue; /* adopt it */
     } else {
       sniff_start();
       return;
@@ -316,25 +316,40 @@ static void update_led(void) {
   board_led_set(control_led_on()); /* register 25, or the alarm blink (dxl_control.h) */
 }
 
+/* While a packet to this servo is coming in (the sniff has matched part of it) or its armed
+ * reply waits for the main loop, a due control tick waits, at most TICK_DEFER_MAX_MS, so a
+ * streamed reply is not held up behind a whole tick (about 140 us). */
+#define TICK_DEFER_MAX_MS 2u
+static uint16_t last_tick_ms;
+
+static bool tick_deferred(uint16_t now_ms) {
+  const uint8_t sniff = uart_sniff;
+  const bool packet_for_us = armed || (sniff != 0 && sniff <= UART_SNIFF_ARMED);
+  return packet_for_us && (uint16_t)(now_ms - last_tick_ms) < TICK_DEFER_MAX_MS;
+}
+
 static void service_tick(void) {
-  if (timebase_poll() == 0) {
+  const uint16_t now_ms = timebase_ms();
+  if (tick_deferred(now_ms) || timebase_poll() == 0) {
     return;
   }
-  const uint16_t now_ms = timebase_ms();
+  last_tick_ms = now_ms;
   if (armed && (uint16_t)(now_ms - armed_ms) >= ARM_TIMEOUT_MS && uart_reply_disarm()) {
     armed = false;
   }
-  /* A sniff whose PING stopped part-way ends, long before the finder's gap timeout
-   * could split what it matched. */
-  if (uart_sniff != 0 && uart_sniff < UART_SNIFF_ARMED) {
+  /* A sniff whose packet stopped part-way (no byte for SNIFF_MAX_MS) ends, long before the
+   * finder's gap timeout could split what it matched. */
+  const uint8_t head = uart_rx_head;
+  if (uart_sniff != 0 && uart_sniff < UART_SNIFF_ARMED && head == sniff_seen_head) {
     if (++sniff_age_ms >= SNIFF_MAX_MS) {
       (void)uart_sniff_stop(UART_SNIFF_ARMED - 1u);
     }
   } else {
     sniff_age_ms = 0;
+    sniff_seen_head = head;
   }
-  if (!armed) {
-    dxl_finder_poll(&finder, now_ms);
+  if (!armed && dxl_finder_poll(&finder, now_ms)) {
+    finder_dirty = true; /* rescan what came before the gap */
   }
   if (!adc_busy()) {
     publish_adc(adc_sequence[adc_slot], adc_result());
@@ -352,20 +367,6 @@ static void service_tick(void) {
  * If one of these becomes true after this test, EE_READY is already pending and ends the
  * sleep at once. */
 static bool work_without_interrupt(void) { return nvm_work_ready() || (reply_waits_for_nvm && !nvm_busy()); }
-
-/* Work the ISRs flag (tick, received byte, reply sent); tested with interrupts disabled, so the interrupts stay off
- * only for these few cycles before SLEEP (they delay the RX ISR, whose tick times replies). */
-static inline bool work_from_interrupt(void) {
-  if (timebase_tick_due()) {
-    return true;
-  }
-  const uint8_t state = uart_reply_state();
-  if (armed) {
-    return uart_rx_available();
-  }
-  return uart_sniff == UART_SNIFF_ARMED || state == UART_REPLY_DONE ||
-         (state == UART_REPLY_IDLE && !reply_waits_for_nvm && uart_rx_available());
-}
 
 static void power_up(void) {
   board_init();
@@ -392,17 +393,17 @@ int main(void) {
   power_up();
   sei();
   for (;;) {
+    board_wake_clear();
     board_watchdog_kick();
     service_reply();
     service_rx();
     service_tick();
     nvm_service();
+    /* Work an ISR leaves (a received byte, a tick, a reply sent) sets the wake flag; a pass
+     * that stops early with bytes waiting (a reply under way) is woken by the reply's
+     * TX-complete. */
     if (!work_without_interrupt()) {
-      cli();
-      if (!work_from_interrupt()) {
-        board_sleep_enable_interrupts();
-      }
-      sei();
+      board_sleep_unless_woken();
     }
   }
 }

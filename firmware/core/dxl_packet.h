@@ -13,9 +13,13 @@
  * their own (a complete packet hidden behind a garbage header is still found) and what is left
  * of them is discarded.
  *
- * Use: dxl_finder_push() one byte, then call dxl_finder_next() until it returns
- * DXL_FIND_NONE (one byte can complete more than one packet after a rescan). A returned
- * packet's params point into the finder and stay valid until the next push or next call.
+ * Use: dxl_finder_push() one byte (or a batch, dxl_finder_push_slot()), then call
+ * dxl_finder_next() until it returns DXL_FIND_NONE (one byte can complete more than one
+ * packet after a rescan). A returned packet's params point into the finder and stay valid
+ * until the next push or next call.
+ *
+ * Cost: the body bytes of a candidate are summed in one tight loop (sum_body), so a batch
+ * costs a few cycles a byte plus a fixed amount per header byte and per packet.
  *
  * Time is passed in (milliseconds, any origin, wrapping at 2^16); the finder never reads a
  * clock. Worst-case rescan work after a bad checksum is O(n^2) in the candidate length
@@ -56,12 +60,20 @@ typedef struct {
 
 void dxl_finder_init(dxl_finder_t *finder);
 void dxl_finder_push(dxl_finder_t *finder, uint8_t byte, uint16_t now_ms);
+
+/* Batch push, the same as dxl_finder_push() for each byte at one now_ms: push_slot returns
+ * where the next byte goes and sets *room to how many fit (0 when the finder is full: call
+ * dxl_finder_next() first); the caller writes up to
+ * that many there, then reports them with dxl_finder_pushed(). Nothing else in between. */
+uint8_t *dxl_finder_push_slot(dxl_finder_t *finder, uint16_t *room, uint16_t now_ms);
+void dxl_finder_pushed(dxl_finder_t *finder, uint16_t count, uint16_t now_ms);
 dxl_find_result_t dxl_finder_next(dxl_finder_t *finder, dxl_packet_t *packet);
 
-/* Ends the bytes held so far if no byte came for more than DXL_PACKET_GAP_TIMEOUT_MS: call
- * dxl_finder_next() afterwards until it returns DXL_FIND_NONE. Call it now and then while
- * idle (the gap is also checked on every push). */
-void dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms);
+/* Ends the bytes held so far if no byte came for more than DXL_PACKET_GAP_TIMEOUT_MS, and
+ * returns true when it did: call dxl_finder_next() afterwards until it returns DXL_FIND_NONE
+ * (a packet hidden in them is found now, not when the next byte comes). Call it now and then
+ * while idle (the gap is also checked on every push). */
+bool dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms);
 
 /* True when every byte of a packet but its checksum is in: *packet then describes it and
  * *expected_checksum is the checksum that would make it valid. Lets the caller prepare the

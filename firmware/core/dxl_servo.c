@@ -49,6 +49,17 @@ bool dxl_servo_answers(const dxl_servo_t *servo, uint8_t id, uint8_t instruction
   return id == servo->table[CT_ADDR_ID] && servo->table[CT_ADDR_STATUS_RETURN_LEVEL] >= min_status_level(instruction);
 }
 
+uint8_t dxl_servo_stream_mask(const dxl_servo_t *servo) {
+  /* min_status_level() per streamed instruction: PING 0, READ 1, WRITE and REG_WRITE 2. */
+  static const DXL_FLASH uint8_t mask_from_level[] = {
+      1u << DXL_INST_PING,
+      (1u << DXL_INST_PING) | (1u << DXL_INST_READ),
+      (1u << DXL_INST_PING) | (1u << DXL_INST_READ) | (1u << DXL_INST_WRITE) | (1u << DXL_INST_REG_WRITE),
+  };
+  const uint8_t level = servo->table[CT_ADDR_STATUS_RETURN_LEVEL];
+  return mask_from_level[level > STATUS_LEVEL_ALL ? STATUS_LEVEL_ALL : level];
+}
+
 static bool window_overlaps(uint8_t start, uint8_t len, uint8_t first_addr, uint8_t last_addr) {
   return start <= last_addr && (uint16_t)start + len > first_addr;
 }
@@ -261,7 +272,7 @@ void dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl
   encode_status(s, error, returns_data ? &s->table[r->window_start] : NULL, returns_data ? r->window_len : 0, r);
 }
 
-void dxl_servo_ping_reply(const dxl_servo_t *servo, dxl_ping_reply_t *reply) {
+void dxl_servo_ping_reply(const dxl_servo_t *servo, dxl_response_t *reply) {
   uint8_t *out = reply->bytes;
   const uint8_t id = servo->table[CT_ADDR_ID];
   const uint8_t error = dxl_servo_conditions(servo);

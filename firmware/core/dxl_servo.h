@@ -87,15 +87,26 @@ void dxl_servo_factory_reset(dxl_servo_t *servo);
  * dxl_servo_prepare() over every instruction code, parameter count, addressing and level. */
 bool dxl_servo_answers(const dxl_servo_t *servo, uint8_t id, uint8_t instruction);
 
-/* The status packet that answers a PING now (when it is answered at all: dxl_servo_answers),
- * byte for byte what dxl_servo_prepare() builds for it. Small, so the firmware keeps one ready
- * and can arm it before a PING's instruction byte has even been examined. */
+/* Streamed replies: which unicast packets to this servo the firmware may start answering from
+ * the RX interrupt, before the main loop has seen them (docs/firmware.md "The sniff"). Bit i
+ * of the mask is set when instruction i is one of PING, READ, WRITE, REG_WRITE and is
+ * answered (dxl_servo_answers) at the current Status Return Level. A packet streams when
+ *   its ID is this servo's, its instruction's bit is set, and, for a WRITE with at least
+ *   one parameter, that first parameter (the start address) is >= DXL_STREAM_WRITE_MIN_ADDR
+ *   (a write of the EEPROM area is answered only once stored).
+ * Contract, tested over every LENGTH and parameter: such a packet's dxl_servo_prepare()
+ * reply is non-empty, has after == 0 and starts FF FF ID, so its first three bytes can leave
+ * before it is prepared. */
+#define DXL_STREAM_WRITE_MIN_ADDR CT_EEPROM_SIZE
+#define DXL_STREAM_HEADER_BYTES 3u
+uint8_t dxl_servo_stream_mask(const dxl_servo_t *servo);
+
+/* The status packet that answers a PING now (when it is answered at all: dxl_servo_answers):
+ * bytes[0..DXL_PING_REPLY_BYTES) and delay_us, byte for byte what dxl_servo_prepare() builds
+ * for it; nothing else of *reply changes. Small, so the firmware keeps one ready and can arm
+ * it before a PING's instruction byte has even been examined. */
 #define DXL_PING_REPLY_BYTES 6u
-typedef struct {
-  uint8_t bytes[DXL_PING_REPLY_BYTES];
-  uint16_t delay_us; /* as dxl_response_t.delay_us */
-} dxl_ping_reply_t;
-void dxl_servo_ping_reply(const dxl_servo_t *servo, dxl_ping_reply_t *reply);
+void dxl_servo_ping_reply(const dxl_servo_t *servo, dxl_response_t *reply);
 
 void dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response);
 void dxl_servo_commit(dxl_servo_t *servo, const dxl_response_t *response);

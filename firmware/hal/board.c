@@ -29,9 +29,13 @@ void board_watchdog_start(void) { wdt_enable(WDTO_250MS); }
 
 void board_watchdog_kick(void) { wdt_reset(); }
 
-void board_sleep_enable_interrupts(void) {
-  sleep_enable();
+void board_sleep_unless_woken(void) {
+  cli();
+  if (!(GPIOR0 & _BV(BOARD_WAKE_BIT))) {
+    sleep_enable();
+    sei();
+    sleep_cpu();
+    sleep_disable();
+  }
   sei();
-  sleep_cpu();
-  sleep_disable();
 }

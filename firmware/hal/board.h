@@ -3,6 +3,15 @@
 #ifndef HAL_BOARD_H
 #define HAL_BOARD_H
 
+/* The wake flag: GPIOR0 bit BOARD_WAKE_BIT, set (one SBI) by every ISR that gives the main
+ * loop work (USART_RX, USART_TX, TIMER1_COMPB, EE_READY), cleared at the top of each main
+ * loop pass. The sleep test then needs interrupts off for only a few cycles: a long
+ * interrupts-off window would delay USART_RX, whose entry time times the replies. */
+#define BOARD_WAKE_BIT 0
+
+#ifndef __ASSEMBLER__
+
+#include <avr/io.h>
 #include <stdbool.h>
 #include <stdint.h>
 
@@ -21,10 +30,14 @@ void board_led_set(bool on);
 void board_watchdog_start(void);
 void board_watchdog_kick(void);
 
-/* Idle sleep, race-free. Call with interrupts disabled, after deciding there is nothing to do:
- * enables interrupts and sleeps in one step (the instruction after SEI always runs, so an
- * interrupt that became pending before cannot be missed), returns with interrupts enabled
- * after the ISR that woke the CPU. Idle mode keeps the timers, USART, ADC and EEPROM running. */
-void board_sleep_enable_interrupts(void);
+/* Start of a main loop pass: forget earlier wake-ups (the pass is about to look at everything). */
+static inline void board_wake_clear(void) { GPIOR0 &= (uint8_t)~_BV(BOARD_WAKE_BIT); }
 
+/* Idle sleep, race-free: call when the pass found nothing more to do. Sleeps unless an ISR
+ * set the wake flag since board_wake_clear(); SEI and SLEEP are one step (the instruction
+ * after SEI always runs, so an interrupt that became pending before cannot be missed).
+ * Returns with interrupts enabled. Idle mode keeps the timers, USART, ADC and EEPROM running. */
+void board_sleep_unless_woken(void);
+
+#endif /* __ASSEMBLER__ */
 #endif

@@ -2,6 +2,7 @@
 #include "timebase.h"
 
 #include <avr/io.h>
+#include <util/atomic.h>
 
 volatile uint16_t timebase_ms_count; /* TIMER1_COMPB ISR */
 static uint16_t ms_polled;           /* main loop: the count timebase_poll() last saw */
@@ -13,6 +14,12 @@ void timebase_init(void) {
   OCR1B = TIMEBASE_TICK_PERIOD_TICKS;
   TIFR1 = _BV(OCF1A) | _BV(OCF1B) | _BV(TOV1);
   TIMSK1 = _BV(OCIE1B);
+}
+
+uint16_t timebase_ms(void) {
+  uint16_t ms;
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { ms = timebase_ms_count; }
+  return ms;
 }
 
 uint8_t timebase_poll(void) {

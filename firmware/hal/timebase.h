@@ -25,11 +25,7 @@ void timebase_init(void);
 /* Milliseconds since power-up, wrapping at 2^16 (TIMER1_COMPB writes it). */
 extern volatile uint16_t timebase_ms_count;
 
-static inline uint16_t timebase_ms(void) {
-  uint16_t ms;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { ms = timebase_ms_count; }
-  return ms;
-}
+uint16_t timebase_ms(void);
 
 /* Control periods elapsed since the last call (0 if none; saturates at 255). Main loop. */
 uint8_t timebase_poll(void);

@@ -5,11 +5,18 @@
 #include <avr/interrupt.h>
 #include <util/atomic.h>
 
+#include "dxl_protocol.h"
+#include "dxl_servo.h"
+#include "board.h"
 #include "timebase.h"
 
 #if (UART_RX_RING_BYTES & UART_RX_RING_MASK) != 0 || UART_RX_RING_BYTES > 128
 #error "UART_RX_RING_BYTES must be a power of two <= 128 (8-bit free-running indices)"
 #endif
+_Static_assert(DXL_HEADER_BYTE_ASM == DXL_HEADER_BYTE && DXL_INST_PING_ASM == DXL_INST_PING &&
+                   DXL_INST_WRITE_ASM == DXL_INST_WRITE && UART_SNIFF_WRITE_MIN_ADDR == DXL_STREAM_WRITE_MIN_ADDR &&
+                   UART_STREAM_HEADER_BYTES == DXL_STREAM_HEADER_BYTES,
+               "uart.h's assembler copies of the protocol values");
 #if UART_COMPA_EARLY_TICKS > 63 || UART_SPIN_COMPENSATION_TICKS > 63
 #error "compensation must fit SBIW in uart_rx.S"
 #endif
@@ -34,16 +41,20 @@ volatile uint8_t uart_rx_line_error_count; /* RX ISR */
  * only once the state says a reply is armed or under way. */
 volatile uint8_t uart_tx_state;
 volatile uint8_t uart_tx_checksum;    /* ARMED: the byte that completes the packet */
-volatile uint8_t uart_tx_skip;        /* ARMED: bytes to let pass before the checksum (RX ISR counts down) */
 volatile uint8_t uart_tx_mode;        /* UART_START_* */
 volatile uint16_t uart_tx_delay_ticks; /* Return Delay Time in Timer1 ticks */
-volatile uint8_t uart_tx_first;       /* bytes[0], so the start path is one LDS */
 volatile uint8_t uart_tx_next;        /* UDRE ISR: index of the next byte to write */
 volatile uint16_t uart_tx_start_tick; /* WAITING: TIMER1_COMPA spins until TCNT1 reaches it */
+volatile uint8_t uart_tx_published;   /* UDRE ISR sends bytes[0..published); RX ISR, main */
 volatile uint8_t uart_sniff = UART_SNIFF_OFF; /* RX ISR and main (ATOMIC) */
-volatile uint8_t uart_sniff_id;
-static const uint8_t *tx_bytes;
-static uint8_t tx_length;
+volatile uint8_t uart_sniff_id;       /* the sniff's own state (RX ISR), set by uart_sniff_start */
+volatile uint8_t uart_sniff_mask;
+volatile uint8_t uart_sniff_instruction;
+volatile uint8_t uart_sniff_sum;
+volatile uint8_t uart_sniff_count;
+volatile uint8_t uart_sniff_end;
+const uint8_t *volatile uart_tx_bytes; /* the loaded reply (UDRE ISR reads) */
+volatile uint8_t uart_tx_length;
 
 void uart_set_baud(uint8_t baud_register) {
   UBRR0H = 0;
@@ -64,7 +75,7 @@ void uart_init(uint8_t baud_register) {
  * flight, which would send the second byte without waiting). Interrupts off. */
 static inline __attribute__((always_inline)) void reply_send_first(void) {
   PORTD |= _BV(UART_BUS_DIR_BIT);
-  UDR0 = uart_tx_first;
+  UDR0 = DXL_HEADER_BYTE; /* every status packet starts with it */
   UCSR0B = UART_UCSR0B_TALK;
   uart_tx_next = 1;
   uart_tx_state = UART_REPLY_SENDING;
@@ -84,8 +95,7 @@ static void reply_start_late(uint16_t rx_tick) {
     const uint16_t ocr = (uint16_t)(start - UART_COMPA_EARLY_TICKS);
     if ((int16_t)(ocr - TCNT1) > LATE_MIN_LEAD_TICKS) {
       uart_tx_start_tick = start;
-      OCR1A = ocr;
-      TIFR1 = _BV(OCF1A);
+      OCR1A = ocr; /* a stale OCF1A: TIMER1_COMPA ignores it */
       TIMSK1 = _BV(OCIE1A) | _BV(OCIE1B);
       uart_tx_state = UART_REPLY_WAITING;
       return;
@@ -95,36 +105,18 @@ static void reply_start_late(uint16_t rx_tick) {
   reply_send_first();
 }
 
-/* One byte per UDRE; with the last byte, hands over to TX-complete. TXC0 is cleared there
- * because simavr raises it after every byte (silicon: only once the shifter runs empty). */
-ISR(USART_UDRE_vect) {
-  const uint8_t next = uart_tx_next;
-  UDR0 = tx_bytes[next];
-  if ((uint8_t)(next + 1u) == tx_length) {
-    UCSR0A = _BV(U2X0) | _BV(TXC0);
-    UCSR0B = UART_UCSR0B_LAST_BYTE;
-  }
-  uart_tx_next = (uint8_t)(next + 1u);
-}
-
 /* The last stop bit has left: release the bus, listen again. */
 ISR(USART_TX_vect) {
   PORTD &= (uint8_t)~_BV(UART_BUS_DIR_BIT);
   UCSR0B = UART_UCSR0B_LISTEN;
   uart_tx_state = UART_REPLY_DONE;
-}
-
-/* UART_COMPA_EARLY_TICKS before the reply: spin to the exact tick, start it. */
-ISR(TIMER1_COMPA_vect) {
-  spin_until(uart_tx_start_tick);
-  reply_send_first();
-  TIMSK1 = _BV(OCIE1B);
+  GPIOR0 |= _BV(BOARD_WAKE_BIT);
 }
 
 __attribute__((noinline)) void uart_reply_load(const uint8_t *bytes, uint8_t length, uint16_t delay_us) {
-  tx_bytes = bytes;
-  tx_length = length;
-  uart_tx_first = bytes[0];
+  uart_tx_bytes = bytes;
+  uart_tx_length = length;
+  uart_tx_published = length;
   const uint16_t delay_ticks = (uint16_t)(delay_us * TIMEBASE_TICKS_PER_US);
   uart_tx_delay_ticks = delay_ticks;
   if (delay_ticks <= UART_NOW_MAX_DELAY_TICKS) {
@@ -134,24 +126,6 @@ __attribute__((noinline)) void uart_reply_load(const uint8_t *bytes, uint8_t len
   } else {
     uart_tx_mode = UART_START_SPIN;
   }
-}
-
-uint8_t uart_reply_arm(uint8_t expected_checksum, uint8_t skip) {
-  uint8_t state;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    const uint8_t tail = uart_rx_tail;
-    const uint8_t waiting = (uint8_t)(uart_rx_head - tail);
-    if (waiting <= skip) {
-      uart_tx_checksum = expected_checksum;
-      uart_tx_skip = (uint8_t)(skip - waiting);
-      uart_tx_state = UART_REPLY_ARMED;
-    } else if (uart_rx_ring[(uint8_t)(tail + skip) & UART_RX_RING_MASK] == expected_checksum) {
-      /* Already in: its tick is known only if it is the newest byte. */
-      reply_start_late(waiting == (uint8_t)(skip + 1u) ? uart_rx_tick : TCNT1);
-    }
-    state = uart_tx_state;
-  }
-  return state;
 }
 
 bool uart_reply_disarm(void) {
@@ -176,11 +150,22 @@ void uart_reply_start_now(void) {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { reply_send_first(); }
 }
 
-bool uart_sniff_start(uint8_t id) {
+void uart_reply_publish(uint8_t length) {
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+    uart_tx_length = length;
+    uart_tx_published = length;
+    if (UCSR0B == _BV(TXEN0)) {
+      UCSR0B = UART_UCSR0B_TALK; /* stalled: UDRE fires at once and goes on */
+    }
+  }
+}
+
+bool uart_sniff_start(uint8_t id, uint8_t mask) {
   bool started = false;
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     if (uart_tx_state == UART_REPLY_IDLE && uart_rx_head == uart_rx_tail) {
       uart_sniff_id = id;
+      uart_sniff_mask = mask;
       uart_sniff = 0;
       started = true;
     }

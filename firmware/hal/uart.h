@@ -49,11 +49,23 @@
 #define UART_REPLY_SENDING 3
 #define UART_REPLY_DONE 4
 
-/* PING sniff state (uart_sniff): 0..3 = header bytes FF FF ID 02 matched so far; ARMED =
- * the RX ISR armed the loaded reply at the LENGTH byte (main loop: take it over); OFF. */
-#define UART_SNIFF_ARMED 4
+/* Sniff state (uart_sniff): the byte the RX ISR expects next of a packet to this servo
+ * (uart_rx.S); ARMED = it armed the reply at the last byte before the checksum (main loop:
+ * take it over); OFF. */
+#define UART_SNIFF_ID 2 /* 0, 1: the header's FF FF */
+#define UART_SNIFF_LENGTH 3
+#define UART_SNIFF_INSTRUCTION 4
+#define UART_SNIFF_FIRST_PARAM 5
+#define UART_SNIFF_BODY 6
+#define UART_SNIFF_ARMED 7
 #define UART_SNIFF_OFF 0xFF
+/* Protocol values the assembly needs (dxl_protocol.h / dxl_servo.h spell them with a u
+ * suffix the assembler does not take; uart.c checks they agree). */
 #define DXL_HEADER_BYTE_ASM 0xFF
+#define DXL_INST_PING_ASM 1
+#define DXL_INST_WRITE_ASM 3
+#define UART_SNIFF_WRITE_MIN_ADDR 24 /* DXL_STREAM_WRITE_MIN_ADDR */
+#define UART_STREAM_HEADER_BYTES 3   /* DXL_STREAM_HEADER_BYTES: FF FF ID */
 
 /* How an armed reply starts (uart_tx_mode), chosen by uart_reply_load from the delay. */
 #define UART_START_NOW 0   /* Return Delay Time 0: the RX ISR writes UDR0 at once */
@@ -73,7 +85,7 @@
  * UDR0 write 9 cycles after the spin sees its tick. TIMER1_COMPA is set
  * UART_COMPA_EARLY_TICKS before start, so its entry and a TIMER1_COMPB ISR (45 cycles) just
  * before it do not delay the reply. */
-#define UART_SPIN_COMPENSATION_TICKS 3
+#define UART_SPIN_COMPENSATION_TICKS 2
 #define UART_COMPA_EARLY_TICKS 12
 /* Up to this delay the NOW path's own latency (UDR0 written 47 cycles after the RX interrupt
  * in simavr, 52 on silicon) is nearer the target than a spin would be (about 63 at the
@@ -125,16 +137,21 @@ static inline bool uart_rx_pop(uint8_t *byte) {
 
 static inline uint8_t uart_reply_state(void) { return uart_tx_state; }
 
-/* PING sniff (uart_rx.S). uart_sniff_start: with the reply loaded (the ready PING reply),
- * state IDLE and the ring empty, the RX ISR matches the next bytes against FF FF id 02 and
- * arms the loaded reply at the LENGTH byte (uart_sniff = UART_SNIFF_ARMED; the checksum is
- * the 6th byte after the ring position at the start). Returns false when a byte came first.
- * uart_sniff_stop: ends a sniff that has matched at most max_pos bytes; true when no sniff
- * runs afterwards (false: it has matched more, or armed). */
+/* The sniff (uart_rx.S). uart_sniff_start: with the ready PING reply loaded, state IDLE and
+ * the ring empty, the RX ISR frames the next packet if it is for id with an instruction
+ * whose bit is set in mask (dxl_servo_stream_mask) and arms the reply at its last byte
+ * before the checksum (uart_sniff = UART_SNIFF_ARMED; uart_sniff_end = the ring position
+ * just after the checksum). A PING answers with the loaded reply; anything else streams
+ * its first UART_STREAM_HEADER_BYTES and waits for uart_reply_publish(). Returns false
+ * when a byte came first. uart_sniff_stop: ends a sniff that has matched at most max_pos
+ * bytes; true when no sniff runs afterwards (false: it has matched more, or armed). */
 extern volatile uint8_t uart_sniff;
-extern volatile uint8_t uart_sniff_id;
-bool uart_sniff_start(uint8_t id);
+extern volatile uint8_t uart_sniff_end;
+bool uart_sniff_start(uint8_t id, uint8_t mask);
 bool uart_sniff_stop(uint8_t max_pos);
+
+/* The rest of a streamed reply is in the loaded buffer: bytes[0..length). Any state. */
+void uart_reply_publish(uint8_t length);
 
 /* Sets the status packet to send next (bytes[0..length), length >= 2) and its delay after
  * the RX interrupt of the instruction's last byte (dxl_response_t.delay_us: 2 us x Return

@@ -60,7 +60,7 @@ static void expect_ping_reply_as_prepared(const dxl_servo_t *servo) {
   dxl_response_t response;
   const dxl_packet_t ping = {servo->table[CT_ADDR_ID], DXL_INST_PING, 0, NULL, 0};
   dxl_servo_prepare(servo, &ping, &response);
-  dxl_ping_reply_t ready;
+  dxl_response_t ready;
   dxl_servo_ping_reply(servo, &ready);
   assert_int_equal(response.length, DXL_PING_REPLY_BYTES);
   assert_memory_equal(ready.bytes, response.bytes, DXL_PING_REPLY_BYTES);
@@ -89,10 +89,75 @@ static void test_the_ready_ping_reply_is_the_prepared_one_in_every_condition(voi
   }
 }
 
+/* The stream contract (dxl_servo.h "Streamed replies"): a packet the RX interrupt may start
+ * answering (its ID, an instruction in dxl_servo_stream_mask(), a WRITE's start address past
+ * the EEPROM area) gets a prepared reply that is non-empty, has nothing to do after it and
+ * starts FF FF ID. Every level, Lock off and on, REG_WRITE slot empty and full, every
+ * parameter count with start addresses 0 and 24, and every start address at short counts. */
+static void expect_streamable(const dxl_servo_t *servo, uint8_t instruction, uint8_t count, const uint8_t *params) {
+  static dxl_response_t response;
+  const dxl_packet_t packet = {OWN_ID, instruction, count, params, 0};
+  if (instruction == DXL_INST_WRITE && count != 0 && params[0] < DXL_STREAM_WRITE_MIN_ADDR) {
+    return; /* not streamed */
+  }
+  dxl_servo_prepare(servo, &packet, &response);
+  if (response.length < DXL_PING_REPLY_BYTES || response.after != 0 || response.bytes[0] != DXL_HEADER_BYTE ||
+      response.bytes[1] != DXL_HEADER_BYTE || response.bytes[2] != OWN_ID) {
+    fail_msg("instruction 0x%02X, %u params from address %u: length %u, after 0x%02X", instruction, count, params[0],
+             response.length, response.after);
+  }
+}
+
+static void test_a_streamed_packet_is_answered_at_once_with_the_header_it_streams(void **state) {
+  (void)state;
+  uint8_t params[DXL_PACKET_MAX_BYTES];
+  static const uint8_t short_counts[] = {0, 1, 2, 3, 4, 5, 12, 50};
+  unsigned streamed_instructions = 0;
+  for (uint8_t level = 0; level < LEVELS; level++) {
+    for (uint8_t variant = 0; variant < 4u; variant++) {
+      dxl_servo_t servo;
+      given_servo(&servo, level);
+      servo.table[CT_ADDR_LOCK] = (uint8_t)(variant & 1u);
+      if (variant & 2u) { /* a registered write waiting */
+        servo.reg_start = CT_ADDR_LED;
+        servo.reg_len = 1;
+        servo.reg_data[0] = 1;
+        servo.table[CT_ADDR_REGISTERED_INSTRUCTION] = 1;
+      }
+      const uint8_t mask = dxl_servo_stream_mask(&servo);
+      for (unsigned instruction = 0; instruction < 8u; instruction++) {
+        if (!(mask & (1u << instruction))) {
+          continue;
+        }
+        streamed_instructions++;
+        assert_true(instruction >= DXL_INST_PING && instruction <= DXL_INST_REG_WRITE);
+        for (unsigned fill = 0; fill < 2u; fill++) {
+          memset(params, fill ? 0xFF : 0x01, sizeof params);
+          for (unsigned count = 0; count <= 253u; count++) {
+            params[0] = 0;
+            expect_streamable(&servo, (uint8_t)instruction, (uint8_t)count, params);
+            params[0] = DXL_STREAM_WRITE_MIN_ADDR;
+            expect_streamable(&servo, (uint8_t)instruction, (uint8_t)count, params);
+          }
+          for (size_t c = 0; c < sizeof short_counts; c++) {
+            for (unsigned start = 0; start < 256u; start++) {
+              params[0] = (uint8_t)start;
+              expect_streamable(&servo, (uint8_t)instruction, short_counts[c], params);
+            }
+          }
+        }
+      }
+    }
+  }
+  /* PING at every level; READ at 1 and 2; WRITE and REG_WRITE at 2: 1+2+4 per variant. */
+  assert_int_equal(streamed_instructions, 4u * (1u + 2u + 4u));
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_the_early_answer_decision_agrees_with_prepare_for_every_packet),
       cmocka_unit_test(test_the_ready_ping_reply_is_the_prepared_one_in_every_condition),
+      cmocka_unit_test(test_a_streamed_packet_is_answered_at_once_with_the_header_it_streams),
   };
   return cmocka_run_group_tests_name("fast reply path (" AX12_PROFILE_NAME ")", tests, NULL, NULL);
 }

@@ -59,21 +59,36 @@ static uint8_t read_byte(harness_t *h, uint8_t id, uint8_t addr) {
   return reply[5];
 }
 
-/* Cycles from the end of the request's last stop bit to the start of the reply's first start
- * bit, as the master saw them on the wire. */
-static sim_cycles_t ping_latency(harness_t *h, uint8_t id) {
+/* One request and its reply as the master saw them on the wire: cycles from the end of the
+ * request's last stop bit to the start of the reply's first start bit, and the longest pause
+ * between two reply bytes (0: back to back). */
+typedef struct {
+  sim_cycles_t latency;
+  sim_cycles_t longest_pause;
+} wire_timing_t;
+
+static wire_timing_t request_timing(harness_t *h, uint8_t id, uint8_t instruction, const uint8_t *params, size_t count,
+                                    size_t reply_len) {
   uint8_t packet[16];
-  const size_t len = harness_packet(packet, id, DXL_INST_PING, H_NO_PARAMS);
+  const size_t len = harness_packet(packet, id, instruction, params, count);
   master_rx_clear(h->master);
   const sim_cycles_t request_end = master_send(h->master, packet, len);
   uint8_t reply[64];
   world_run_until(h->world, request_end);
-  const size_t n = harness_exchange(h, NULL, 0, STATUS_LEN(0), reply, sizeof(reply));
-  (void)n;
-  assert_int_equal(master_rx_count(h->master), STATUS_LEN(0));
-  const bus_rx_t *first = master_rx(h->master, 0);
-  assert_int_equal(first->flags, 0);
-  return first->start - request_end;
+  const size_t n = harness_exchange(h, NULL, 0, reply_len, reply, sizeof(reply));
+  assert_int_equal(n, reply_len);
+  assert_int_equal(master_rx_count(h->master), reply_len);
+  assert_int_equal(reply[4], 0); /* no error */
+  wire_timing_t t = {master_rx(h->master, 0)->start - request_end, 0};
+  for (size_t i = 0; i < reply_len; i++) {
+    const bus_rx_t *b = master_rx(h->master, i);
+    assert_int_equal(b->flags, 0);
+    if (i != 0) {
+      const sim_cycles_t pause = b->start - master_rx(h->master, i - 1)->end;
+      t.longest_pause = pause > t.longest_pause ? pause : t.longest_pause;
+    }
+  }
+  return t;
 }
 
 static void test_ping_is_answered_on_the_wire(void **state) {
@@ -95,37 +110,65 @@ static void test_ping_is_answered_on_the_wire(void **state) {
   harness_close(&h);
 }
 
+/* PING, a READ of Present Position and a WRITE of the LED (RAM; Status Return Level 2, the
+ * default): the reply starts 2 us x Return Delay Time after the request's stop bit, within
+ * 2 us, at every timer phase (12 requests each, spread over the control tick's period). */
+typedef struct {
+  const char *name;
+  uint8_t instruction;
+  uint8_t params[2];
+  uint8_t count;
+  uint8_t reply_params;
+} timed_request_t;
+
 static void test_reply_starts_two_us_times_return_delay_time_after_the_stop_bit(void **state) {
   (void)state;
   harness_t h;
   open_one(&h, NULL);
   static const uint8_t rdts[] = {0, 1, 10, 250, 254};
-  sim_cycles_t lo[sizeof(rdts)];
-  sim_cycles_t hi[sizeof(rdts)];
-  for (size_t r = 0; r < sizeof(rdts); r++) {
+  static const timed_request_t kinds[] = {
+      {"PING", DXL_INST_PING, {0, 0}, 0, 0},
+      {"READ 2", DXL_INST_READ, {36, 2}, 2, 2},
+      {"WRITE 1", DXL_INST_WRITE, {25, 0}, 2, 0},
+  };
+  enum { KINDS = sizeof kinds / sizeof kinds[0], RDTS = sizeof rdts };
+  sim_cycles_t lo[KINDS][RDTS];
+  sim_cycles_t hi[KINDS][RDTS];
+  sim_cycles_t pause[KINDS][RDTS];
+  sim_cycles_t pause_lo[KINDS][RDTS];
+  for (size_t r = 0; r < RDTS; r++) {
     write_byte(&h, 1, 5, rdts[r]);
-    lo[r] = SIM_CYCLES_NEVER;
-    hi[r] = 0;
-    /* Several pings at different phases of the firmware's timers. */
-    for (unsigned k = 0; k < 12; k++) {
-      world_run_until(h.world, h.world->now + sim_us(37u * k + 3u));
-      const sim_cycles_t latency = ping_latency(&h, 1);
-      lo[r] = latency < lo[r] ? latency : lo[r];
-      hi[r] = latency > hi[r] ? latency : hi[r];
+    for (size_t k = 0; k < KINDS; k++) {
+      lo[k][r] = SIM_CYCLES_NEVER;
+      hi[k][r] = 0;
+      pause[k][r] = 0;
+      pause_lo[k][r] = SIM_CYCLES_NEVER;
+      for (unsigned phase = 0; phase < 12; phase++) {
+        world_run_until(h.world, h.world->now + sim_us(37u * phase + 3u));
+        const wire_timing_t t =
+            request_timing(&h, 1, kinds[k].instruction, kinds[k].params, kinds[k].count, STATUS_LEN(kinds[k].reply_params));
+        lo[k][r] = t.latency < lo[k][r] ? t.latency : lo[k][r];
+        hi[k][r] = t.latency > hi[k][r] ? t.latency : hi[k][r];
+        pause[k][r] = t.longest_pause > pause[k][r] ? t.longest_pause : pause[k][r];
+        pause_lo[k][r] = t.longest_pause < pause_lo[k][r] ? t.longest_pause : pause_lo[k][r];
+      }
+      const double expected = 2.0 * rdts[r] * SIM_CYCLES_PER_US;
+      printf("%-7s RDT %3u: reply starts %llu..%llu cycles (%.2f..%.2f us) after the request's stop bit; "
+             "2 us x RDT = %u us; error %+.2f..%+.2f us; longest pause inside the reply %.2f..%.2f us\n",
+             kinds[k].name, rdts[r], (unsigned long long)lo[k][r], (unsigned long long)hi[k][r],
+             sim_cycles_to_us(lo[k][r]), sim_cycles_to_us(hi[k][r]), 2u * rdts[r],
+             ((double)lo[k][r] - expected) / SIM_CYCLES_PER_US, ((double)hi[k][r] - expected) / SIM_CYCLES_PER_US,
+             sim_cycles_to_us(pause_lo[k][r]), sim_cycles_to_us(pause[k][r]));
     }
-    const double expected = 2.0 * rdts[r] * SIM_CYCLES_PER_US;
-    printf("RDT %3u: reply starts %llu..%llu cycles (%.2f..%.2f us) after the request's stop bit; "
-           "2 us x RDT = %u us; error %+.2f..%+.2f us\n",
-           rdts[r], (unsigned long long)lo[r], (unsigned long long)hi[r], sim_cycles_to_us(lo[r]),
-           sim_cycles_to_us(hi[r]), 2u * rdts[r], ((double)lo[r] - expected) / SIM_CYCLES_PER_US,
-           ((double)hi[r] - expected) / SIM_CYCLES_PER_US);
   }
-  for (size_t r = 0; r < sizeof(rdts); r++) {
-    const double expected = 2.0 * rdts[r] * SIM_CYCLES_PER_US;
-    if (rdts[r] != 0 && ((double)lo[r] < expected - 2.0 * SIM_CYCLES_PER_US ||
-                         (double)hi[r] > expected + 2.0 * SIM_CYCLES_PER_US)) {
-      fail_msg("RDT %u: the reply starts %.2f..%.2f us after the stop bit, not within 2 us of %u us", rdts[r],
-               sim_cycles_to_us(lo[r]), sim_cycles_to_us(hi[r]), 2u * rdts[r]);
+  for (size_t k = 0; k < KINDS; k++) {
+    for (size_t r = 0; r < RDTS; r++) {
+      const double expected = 2.0 * rdts[r] * SIM_CYCLES_PER_US;
+      if (rdts[r] != 0 && ((double)lo[k][r] < expected - 2.0 * SIM_CYCLES_PER_US ||
+                           (double)hi[k][r] > expected + 2.0 * SIM_CYCLES_PER_US)) {
+        fail_msg("%s, RDT %u: the reply starts %.2f..%.2f us after the stop bit, not within 2 us of %u us",
+                 kinds[k].name, rdts[r], sim_cycles_to_us(lo[k][r]), sim_cycles_to_us(hi[k][r]), 2u * rdts[r]);
+      }
     }
   }
   harness_close(&h);
