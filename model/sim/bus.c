@@ -5,7 +5,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+_Static_assert(BUS_NOISE_FRAME_BITS == BUS_FRAME_BITS_8N1, "the noise model's frame is the wire's frame");
+
 void bus_init(bus_t *bus) { memset(bus, 0, sizeof(*bus)); }
+
+bool bus_set_noise(bus_t *bus, double bit_error_rate, uint64_t seed) {
+  return bus_noise_init(&bus->noise, bit_error_rate, seed);
+}
 
 void bus_free(bus_t *bus) {
   for (size_t i = 0; i < bus->node_count; i++) {
@@ -223,7 +229,25 @@ static size_t collect_overlaps(bus_t *bus, bus_byte_t *x, bus_byte_t *group) {
   return count;
 }
 
+/* The wire's noise on x, drawn once as x is finalized (on the main thread, in order of the
+ * bytes' ends, so the draws are deterministic): every receiver, and the decode of any byte
+ * that collides with x later, sees the same corrupted frame. */
+static void add_noise(bus_t *bus, bus_byte_t *x) {
+  const uint16_t flips = bus_noise_next_frame(&bus->noise);
+  if (flips == 0u) {
+    return;
+  }
+  x->value ^= bus_noise_data_xor(flips);
+  if (bus_noise_framing_error(flips)) {
+    x->flags |= BUS_RX_FRAMING_ERROR;
+  }
+  bus->noise_corrupted_bytes++;
+  bus->noise_flipped_bits += (uint64_t)__builtin_popcount(flips);
+}
+
 static void finalize_one(bus_t *bus, bus_byte_t x) {
+  const uint8_t sent = x.value;
+  add_noise(bus, &x);
   bus_byte_t group[GROUP_MAX];
   const size_t count = collect_overlaps(bus, &x, group);
   if (x.flags & BUS_RX_COLLISION) {
@@ -252,7 +276,7 @@ static void finalize_one(bus_t *bus, bus_byte_t x) {
     bus_rx_t rx;
     rx.start = x.start;
     rx.end = x.end;
-    rx.sent = x.value;
+    rx.sent = sent;
     rx.sender = x.sender;
     rx.flags = x.flags;
     const bool mismatch = fabs(rx_cpb - x.cycles_per_bit) > BUS_BAUD_TOLERANCE * x.cycles_per_bit;
@@ -262,7 +286,7 @@ static void finalize_one(bus_t *bus, bus_byte_t x) {
     }
     if (mismatch || (x.flags & (BUS_RX_COLLISION | BUS_RX_TRUNCATED))) {
       rx.value = bus_decode(group, count, frame_start, rx_cpb);
-      if (mismatch && rx.value == x.value) {
+      if (mismatch && rx.value == sent) {
         rx.value ^= 0x80u; /* POLICY.md: a link off by more than 3 % does not communicate */
       }
     } else {

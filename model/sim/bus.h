@@ -16,6 +16,11 @@
  *   receiver decodes that combined waveform, one frame per overlapping group.
  * - truncation: a sender that stops driving (direction pin released) in the middle of a
  *   byte leaves the line idle (1) from then on; receivers decode what was on the wire.
+ * - noise (bus_set_noise, off by default): each bit of a frame flips with a set probability,
+ *   drawn once per byte when it is finalized, so every receiver gets the same corrupted
+ *   byte. A flipped data bit changes the value; a flipped start or stop bit is delivered as
+ *   BUS_RX_FRAMING_ERROR with the data bits as sampled (the model does not re-synchronise a
+ *   receiver on a later edge, so such a flip never disturbs the following byte).
  *
  * Scheduling contract (see world.c): the bus "finalizes" a byte (decides what each node
  * receives and calls its deliver callback) once the world's clock has reached
@@ -29,6 +34,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "bus_noise.h"
 #include "sim_time.h"
 
 #define BUS_MAX_NODES 256
@@ -42,6 +48,7 @@ enum {
   BUS_RX_COLLISION = 1u << 0,     /* another sender overlapped this byte */
   BUS_RX_BAUD_MISMATCH = 1u << 1, /* receiver and sender bauds differ by > 3 % */
   BUS_RX_TRUNCATED = 1u << 2,     /* the sender stopped driving before the stop bit */
+  BUS_RX_FRAMING_ERROR = 1u << 3, /* noise flipped the start or the stop bit */
 };
 
 /* One byte as one receiver gets it. */
@@ -100,6 +107,9 @@ typedef struct {
   uint64_t collided_bytes;
   uint64_t mismatched_deliveries;
   uint64_t truncated_bytes;
+  bus_noise_t noise;
+  uint64_t noise_corrupted_bytes; /* bytes with at least one flipped bit */
+  uint64_t noise_flipped_bits;
 } bus_t;
 
 void bus_init(bus_t *bus);
@@ -107,6 +117,12 @@ void bus_free(bus_t *bus);
 
 /* Adds a node; returns its index, or -1 when the bus is full. */
 int bus_add_node(bus_t *bus, const char *name, const bus_node_ops_t *ops);
+
+/* Noise on the wire from now on: every bit of every byte finalized later flips with
+ * probability bit_error_rate, from a PRNG seeded with seed (bus_noise.h). Rate 0 (the state
+ * after bus_init) is no noise and no PRNG draws. Returns false, leaving the noise off, for a
+ * rate outside [0, 1). Call it between world steps (the main thread finalizes). */
+bool bus_set_noise(bus_t *bus, double bit_error_rate, uint64_t seed);
 
 /* Node `node` puts a byte on the wire starting at `start` (or when its previous byte ends,
  * if later) at its current bit time. Returns the end of the byte's stop bit. */

@@ -10,6 +10,7 @@
 #include <errno.h>
 #include <getopt.h>
 #include <limits.h>
+#include <math.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdbool.h>
@@ -19,6 +20,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "bus_noise.h"
 #include "eeprom_store.h"
 #include "id_list.h"
 #include "pacing.h"
@@ -64,6 +66,13 @@ static const char usage_text[] =
     "  --elf PATH          firmware ELF (default: <firmware-dir>/ax12-<profile>-<mcu>.elf)\n"
     "  --firmware-dir DIR  where the firmware ELFs are (default: the build's)\n"
     "  --stats             print bus and timing statistics to stderr on exit\n"
+    "  --bit-error-rate RATE\n"
+    "                      noise: every bit on the wire (start, 8 data, stop) flips with\n"
+    "                      probability RATE, 0 <= RATE < 1 (default 0: none), both ways;\n"
+    "                      a flipped data bit changes the byte every node gets, a flipped\n"
+    "                      start or stop bit is a framing error\n"
+    "  --seed N            seed of the noise, 0..2^64-1 (default 1): the same seed and the\n"
+    "                      same bytes on the wire give the same errors\n"
     "  -h, --help          this text\n"
     "\n"
     "The physical world of every servo (model/plant: motor, gears, pot, supply, heat):\n";
@@ -80,6 +89,8 @@ typedef struct {
   char elf[PATH_MAX];
   const char *firmware_dir;
   bool stats;
+  double bit_error_rate; /* per bit on the wire, [0, 1) */
+  uint64_t noise_seed;
   plant_options_t world;
 } serve_options_t;
 
@@ -159,10 +170,34 @@ static bool parse_uint(const char *text, unsigned max, unsigned *value) {
   return true;
 }
 
+/* A whole decimal number in 0..UINT64_MAX. */
+static bool parse_u64(const char *text, uint64_t *value) {
+  char *end = NULL;
+  errno = 0;
+  const unsigned long long v = strtoull(text, &end, 10);
+  if (text[0] < '0' || text[0] > '9' || errno || !end || *end) { /* no sign, no blanks */
+    return false;
+  }
+  *value = (uint64_t)v;
+  return true;
+}
+
+/* A decimal number (strtod syntax: 1e-4 too) that is a valid bit error rate (bus_noise_rate_valid). */
+static bool parse_bit_error_rate(const char *text, double *rate) {
+  char *end = NULL;
+  errno = 0;
+  const double v = strtod(text, &end);
+  if (errno || !end || *end || end == text || !isfinite(v) || !bus_noise_rate_valid(v)) {
+    return false;
+  }
+  *rate = v;
+  return true;
+}
+
 /* Returns -1 to go on, else an exit status. */
 static int parse_serve_options(int argc, char **argv, serve_options_t *o) {
   enum { OPT_IDS = 256, OPT_LINK, OPT_STATE_DIR, OPT_PROFILE, OPT_MCU, OPT_BAUD, OPT_REALTIME, OPT_FAST, OPT_ELF,
-         OPT_FIRMWARE_DIR, OPT_STATS };
+         OPT_FIRMWARE_DIR, OPT_STATS, OPT_BIT_ERROR_RATE, OPT_SEED };
   static const struct option long_options[] = {
       {"ids", required_argument, NULL, OPT_IDS},
       {"link", required_argument, NULL, OPT_LINK},
@@ -175,6 +210,8 @@ static int parse_serve_options(int argc, char **argv, serve_options_t *o) {
       {"elf", required_argument, NULL, OPT_ELF},
       {"firmware-dir", required_argument, NULL, OPT_FIRMWARE_DIR},
       {"stats", no_argument, NULL, OPT_STATS},
+      {"bit-error-rate", required_argument, NULL, OPT_BIT_ERROR_RATE},
+      {"seed", required_argument, NULL, OPT_SEED},
       PLANT_LONG_OPTIONS,
       {"help", no_argument, NULL, 'h'},
       {NULL, 0, NULL, 0},
@@ -187,6 +224,7 @@ static int parse_serve_options(int argc, char **argv, serve_options_t *o) {
   o->baud = 1;
   o->realtime = true;
   o->firmware_dir = AX12_DEFAULT_FIRMWARE_DIR;
+  o->noise_seed = BUS_NOISE_DEFAULT_SEED;
   default_state_dir(o->state_dir, sizeof(o->state_dir));
   plant_options_default(&o->world);
   opterr = 0;
@@ -239,6 +277,16 @@ static int parse_serve_options(int argc, char **argv, serve_options_t *o) {
     case OPT_STATS:
       o->stats = true;
       break;
+    case OPT_BIT_ERROR_RATE:
+      if (!parse_bit_error_rate(optarg, &o->bit_error_rate)) {
+        return fail_usage("bad --bit-error-rate '%s': a probability per bit, 0 <= RATE < 1", optarg);
+      }
+      break;
+    case OPT_SEED:
+      if (!parse_u64(optarg, &o->noise_seed)) {
+        return fail_usage("bad --seed '%s': a whole number 0..18446744073709551615", optarg);
+      }
+      break;
     case 'h':
       fputs(usage_text, stdout);
       fputs(plant_options_help, stdout);
@@ -283,6 +331,11 @@ static void print_stats(const world_t *world, const pty_bridge_t *pty, const pac
           (unsigned long long)pty->from_client, (unsigned long long)pty->to_client,
           (unsigned long long)pty->dropped_to_client, (unsigned long long)world->bus.collided_bytes,
           (unsigned long long)world->bus.mismatched_deliveries);
+  if (world->bus.noise.bit_error_rate > 0.0) {
+    fprintf(stderr, "ax12-emu: noise at %g per bit: %llu bytes corrupted, %llu bits flipped\n",
+            world->bus.noise.bit_error_rate, (unsigned long long)world->bus.noise_corrupted_bytes,
+            (unsigned long long)world->bus.noise_flipped_bits);
+  }
   for (size_t i = 0; i < world->servo_count; i++) {
     const servo_t *s = world->servos[i];
     const uart_link_t *l = &s->board.link;
@@ -309,6 +362,7 @@ static int serve(int argc, char **argv) {
     fprintf(stderr, "ax12-emu: %s\n", err);
     return 1;
   }
+  (void)bus_set_noise(&world->bus, o.bit_error_rate, o.noise_seed); /* validated by the parser */
   for (size_t i = 0; i < o.id_count; i++) {
     char path[PATH_MAX + 32];
     eeprom_store_path(path, sizeof(path), o.state_dir, o.ids[i]);

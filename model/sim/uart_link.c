@@ -125,6 +125,13 @@ static uint8_t udr_read(avr_t *avr, avr_io_addr_t addr, void *param) {
   return v;
 }
 
+/* A receive FIFO entry: the byte, plus simavr's UART_INPUT_FE for a framing error, which
+ * simavr shows as FE0 in UCSR0A while that byte is at the head of the FIFO (as on silicon:
+ * FE0 describes the byte in UDR0; the data bits are delivered). */
+static uint16_t fifo_entry(const bus_rx_t *rx) {
+  return (uint16_t)(rx->value | ((rx->flags & BUS_RX_FRAMING_ERROR) ? UART_INPUT_FE : 0u));
+}
+
 static void receive(uart_link_t *link, const bus_rx_t *rx) {
   avr_t *avr = link->avr;
   avr_uart_t *u = link->uart;
@@ -141,7 +148,7 @@ static void receive(uart_link_t *link, const bus_rx_t *rx) {
     link->rx_overruns++;
     return;
   }
-  uart_fifo_write(&u->input, rx->value);
+  uart_fifo_write(&u->input, fifo_entry(rx));
   /* Keep simavr's read-rate limiter (rx_cnt / rxc_raise_time) from clearing RXC early. */
   u->rx_cnt = 0;
   u->rxc_raise_time = 0;

@@ -12,7 +12,8 @@
  * - RX: a byte is placed in the receive FIFO and RXC raised at the end of its stop bit
  *   (exact cycle), only while PD2 is low and RXEN is set. The FIFO holds three bytes (two
  *   buffered plus the shift register); a fourth sets DOR and is lost. RXC behaves as a level:
- *   reading UDR0 with bytes left raises it again.
+ *   reading UDR0 with bytes left raises it again. A byte the bus marks
+ *   BUS_RX_FRAMING_ERROR (noise on a start or stop bit) sets FE0 while it is in UDR0.
  * - simavr's cycles_per_byte is set to 10 bit times when UBRR0L is written, so anything
  *   inside simavr that uses it agrees with the wire.
  * The hooks chain simavr's own register handlers; only the UDR0 write is taken over. */

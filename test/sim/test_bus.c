@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The wire on its own (model/sim/bus.c, no simavr): byte timing, baud mismatch, collisions,
- * a sender that lets go mid-byte, and the scheduling contract. */
+ * a sender that lets go mid-byte, the scheduling contract, and noise (bus_noise.c). */
+#include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -198,6 +199,112 @@ static void test_the_step_bound_keeps_every_byte_ending_after_the_step(void **st
   bus_free(&bus);
 }
 
+/* P(at least one of n bits flips) at rate p. */
+static double any_of_bits(double p, unsigned n) { return 1.0 - pow(1.0 - p, (double)n); }
+
+static void test_noise_flips_each_frame_bit_independently_at_the_rate_set(void **state) {
+  (void)state;
+  const double p = 0.05;
+  const unsigned frames = 400000u;
+  bus_noise_t noise;
+  assert_true(bus_noise_init(&noise, p, 7u));
+  unsigned per_bit[BUS_NOISE_FRAME_BITS] = {0};
+  unsigned hit = 0;
+  unsigned several = 0;
+  for (unsigned f = 0; f < frames; f++) {
+    const uint16_t mask = bus_noise_next_frame(&noise);
+    assert_int_equal(mask & ~0x3FFu, 0);
+    hit += mask != 0u;
+    several += __builtin_popcount(mask) >= 2;
+    for (unsigned bit = 0; bit < BUS_NOISE_FRAME_BITS; bit++) {
+      per_bit[bit] += (mask >> bit) & 1u;
+    }
+  }
+  /* Tolerances are 6 to 7 standard errors; the seed makes the run exact anyway. */
+  for (unsigned bit = 0; bit < BUS_NOISE_FRAME_BITS; bit++) {
+    assert_true(fabs((double)per_bit[bit] / frames - p) <= 0.05 * p);
+  }
+  assert_true(fabs((double)hit / frames - any_of_bits(p, 10u)) <= 0.005);
+  const double p_several = any_of_bits(p, 10u) - 10.0 * p * pow(1.0 - p, 9.0);
+  assert_true(fabs((double)several / frames - p_several) <= 0.003);
+}
+
+static void test_noise_at_rate_zero_draws_nothing_and_bad_rates_are_refused(void **state) {
+  (void)state;
+  bus_noise_t noise;
+  assert_true(bus_noise_init(&noise, 0.0, 99u));
+  for (unsigned f = 0; f < 1000u; f++) {
+    assert_int_equal(bus_noise_next_frame(&noise), 0);
+  }
+  assert_int_equal(noise.prng_state, 99u); /* no draws: nothing else changes either */
+  const double bad[] = {-0.001, 1.0, 1.5, NAN, INFINITY, -INFINITY};
+  for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+    assert_false(bus_noise_init(&noise, bad[i], 1u));
+    assert_true(noise.bit_error_rate == 0.0);
+    assert_int_equal(bus_noise_next_frame(&noise), 0);
+  }
+  bus_t bus;
+  bus_init(&bus);
+  assert_false(bus_set_noise(&bus, 1.0, 1u));
+  assert_true(bus_set_noise(&bus, 0.999, 1u));
+  bus_free(&bus);
+}
+
+static void test_the_same_seed_gives_the_same_flips(void **state) {
+  (void)state;
+  bus_noise_t a, b, c;
+  assert_true(bus_noise_init(&a, 0.01, 12345u));
+  assert_true(bus_noise_init(&b, 0.01, 12345u));
+  assert_true(bus_noise_init(&c, 0.01, 12346u));
+  unsigned differ = 0;
+  for (unsigned f = 0; f < 100000u; f++) {
+    const uint16_t mask = bus_noise_next_frame(&a);
+    assert_int_equal(mask, bus_noise_next_frame(&b));
+    differ += mask != bus_noise_next_frame(&c);
+  }
+  assert_true(differ > 0u);
+}
+
+static void test_noise_corrupts_a_byte_alike_for_every_receiver_and_flags_start_or_stop_flips(void **state) {
+  (void)state;
+  bus_t bus;
+  bus_init(&bus);
+  probe_t a, b, c;
+  const int na = add_probe(&bus, &a, CYCLES_1MBPS);
+  add_probe(&bus, &b, CYCLES_1MBPS);
+  add_probe(&bus, &c, CYCLES_1MBPS);
+  const double p = 0.02;
+  assert_true(bus_set_noise(&bus, p, 3u));
+  const unsigned bytes = 20000u;
+  unsigned corrupted = 0;
+  unsigned value_changed = 0;
+  unsigned framing_only = 0;
+  for (unsigned i = 0; i < bytes; i++) {
+    const uint8_t sent = (uint8_t)(i * 37u);
+    bus_send(&bus, na, sent, (sim_cycles_t)i * 200u);
+    bus_finalize(&bus, SIM_CYCLES_NEVER - 1);
+    assert_int_equal(b.count, 1);
+    assert_int_equal(c.count, 1);
+    const bus_rx_t *rx = &b.rx[0];
+    assert_int_equal(rx->sent, sent);
+    assert_int_equal(rx->value, c.rx[0].value);
+    assert_int_equal(rx->flags, c.rx[0].flags);
+    assert_int_equal(rx->flags & ~BUS_RX_FRAMING_ERROR, 0);
+    const bool framing = (rx->flags & BUS_RX_FRAMING_ERROR) != 0u;
+    corrupted += rx->value != sent || framing;
+    value_changed += rx->value != sent;
+    framing_only += framing && rx->value == sent;
+    b.count = c.count = 0;
+  }
+  assert_int_equal(a.count, 0);
+  assert_int_equal(bus.noise_corrupted_bytes, corrupted);
+  assert_true(value_changed > 0u);
+  assert_true(framing_only > 0u); /* a start or stop bit alone leaves the data bits as sent */
+  /* 18.3 % of bytes; the tolerance is about 5.5 standard errors. */
+  assert_true(fabs((double)corrupted / bytes - any_of_bits(p, 10u)) <= 0.015);
+  bus_free(&bus);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_bytes_take_ten_bit_times_and_arrive_at_the_end_of_their_stop_bit),
@@ -208,6 +315,10 @@ int main(void) {
       cmocka_unit_test(test_a_byte_starting_in_the_last_half_stop_bit_does_not_collide),
       cmocka_unit_test(test_a_sender_that_releases_mid_byte_leaves_an_idle_line),
       cmocka_unit_test(test_the_step_bound_keeps_every_byte_ending_after_the_step),
+      cmocka_unit_test(test_noise_flips_each_frame_bit_independently_at_the_rate_set),
+      cmocka_unit_test(test_noise_at_rate_zero_draws_nothing_and_bad_rates_are_refused),
+      cmocka_unit_test(test_the_same_seed_gives_the_same_flips),
+      cmocka_unit_test(test_noise_corrupts_a_byte_alike_for_every_receiver_and_flags_start_or_stop_flips),
   };
   return cmocka_run_group_tests_name("sim bus", tests, NULL, NULL);
 }

@@ -74,6 +74,20 @@ def test_fresh_servos_start_at_the_baud_asked_for(emulator, tmp_path):
         assert transact(port, packet(1, 0x01), 6, timeout=0.2) != PING_REPLY[1]
 
 
+def test_bit_error_rate_corrupts_some_replies_and_the_stats_count_it(emulator, tmp_path):
+    emu = emulator("--fast", "--state-dir", str(tmp_path), "--bit-error-rate", "0.01", "--seed", "7", "--stats")
+    outcomes = {"clean": 0, "not clean": 0}
+    with serial.Serial(emu.device, 1000000, timeout=0.05) as port:
+        for _ in range(100):
+            reply = transact(port, packet(1, 0x01), 6, timeout=0.05)
+            outcomes["clean" if reply == PING_REPLY[1] else "not clean"] += 1
+    assert emu.stop() == 0
+    # About 10 % of bytes corrupted: most 12-byte exchanges survive, many do not.
+    assert outcomes["clean"] > 20 and outcomes["not clean"] > 5, outcomes
+    stats = emu.proc.stderr.read().decode()
+    assert "bytes corrupted" in stats, stats
+
+
 def test_help_exits_zero():
     out = subprocess.run([EMU, "serve", "--help"], capture_output=True, text=True, timeout=10)
     assert out.returncode == 0
@@ -91,6 +105,10 @@ def test_help_exits_zero():
     (["--elf", "/nonexistent/fw.elf"], "/nonexistent/fw.elf"),
     (["--state-dir", "/etc/passwd/state"], "/etc/passwd/state"),
     (["--ids"], "--ids"),
+    (["--bit-error-rate", "1"], "--bit-error-rate '1'"),
+    (["--bit-error-rate", "-0.1"], "-0.1"),
+    (["--bit-error-rate", "noise"], "noise"),
+    (["--seed", "-3"], "--seed '-3'"),
 ])
 def test_bad_input_gives_one_line_naming_the_problem(args, names, tmp_path):
     full = [EMU, "serve", "--fast", "--firmware-dir", FIRMWARE_DIR]
