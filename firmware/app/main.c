@@ -178,6 +178,15 @@ static __attribute__((noinline)) void refresh_ping_reply(void) {
   }
 }
 
+/* After a packet handled without a reply under way: the ready PING reply is rebuilt when
+ * the packet changed something or a reply used its buffer; another servo's packet (the
+ * usual case on a busy bus) changes neither. */
+static void refresh_after(void) {
+  if (response.length != 0 || response.action != DXL_ACTION_NONE) {
+    refresh_ping_reply();
+  }
+}
+
 /* The RX ISR armed a reply at a packet's last byte but one: the main loop takes it over (the
  * checksum is the byte before uart_sniff_end). */
 static void adopt_sniffed(void) {
@@ -253,15 +262,15 @@ static void service_rx(void) {
       const dxl_find_result_t found = dxl_finder_next(&finder, &packet);
       if (found == DXL_FIND_PACKET) {
         on_packet(&packet);
-        refresh_ping_reply();
+        refresh_after();
       } else if (found == DXL_FIND_BAD_CHECKSUM) {
         on_bad_checksum(&packet);
-        refresh_ping_reply();
+        refresh_after();
       } else {
         finder_dirty = false;
         return; /* back to the main loop (watchdog, tick) between batches */
       }
-    } else if (push_waiting_bytes(UINT8_MAX) != 0) {
+    } else if (uart_rx_available() && push_waiting_bytes(UINT8_MAX) != 0) {
       finder_dirty = true;
     } else if (uart_sniff == UART_SNIFF_ARMED) {
       continue; /* adopt it */
