@@ -69,13 +69,14 @@ static uint8_t after_reply;      /* DXL_AFTER_* to apply once the reply has left
 
 static uint8_t adc_slot;
 /* Sniff: one that has matched some bytes ends when no byte came for SNIFF_MAX_MS (a byte at
- * 9600 baud takes about 1 ms; the finder's gap timeout is 100 ms). */
-#define SNIFF_MAX_MS 20u
+ * 9600 baud takes about 1 ms). The bytes it held then reach the finder stamped up to
+ * SNIFF_MAX_MS + 1 late, which is what the finder's 100 ms gap rule can be off by. */
+#define SNIFF_MAX_MS 3u
 static uint8_t sniff_age_ms;
 static uint8_t sniff_seen_head; /* uart_rx_head at the last tick */
 /* Control ticks run since power-up (wrapping): a host reads it by symbol to count missed ticks. */
 volatile uint16_t control_tick_count;
-static uint8_t boot_blink_ms_left = BOOT_BLINK_MS;
+static uint8_t boot_blink_ms; /* into the current phase */
 static uint8_t boot_blink_phase;
 
 static void apply_after(uint8_t after) {
@@ -209,9 +210,9 @@ static uint8_t push_waiting_bytes(uint8_t max_bytes) {
   uint8_t *slot = dxl_finder_push_slot(&finder, &room, now_ms);
   uint8_t tail = uart_rx_tail;
   uint8_t count = (uint8_t)(uart_rx_head - tail);
-  if (!armed && uart_sniff == UART_SNIFF_ARMED) {
-    /* Read after the head: the sniff armed at a byte already counted. Its packet's bytes go
-     * through the armed path (adopt_sniffed), which stops at the checksum. */
+  if (!armed && uart_sniff != UART_SNIFF_OFF) {
+    /* Read after the head: the sniff holds the ring (it may drop a packet from it), or armed
+     * at a byte already counted, whose packet goes through the armed path (adopt_sniffed). */
     return 0;
   }
   if (count > max_bytes) {
@@ -260,16 +261,21 @@ static void service_rx(void) {
     }
     if (finder_dirty) {
       const dxl_find_result_t found = dxl_finder_next(&finder, &packet);
-      if (found == DXL_FIND_PACKET) {
-        on_packet(&packet);
-        refresh_after();
-      } else if (found == DXL_FIND_BAD_CHECKSUM) {
-        on_bad_checksum(&packet);
-        refresh_after();
-      } else {
+      if (found == DXL_FIND_NONE) {
         finder_dirty = false;
         return; /* back to the main loop (watchdog, tick) between batches */
       }
+      if (found == DXL_FIND_PACKET) {
+        on_packet(&packet);
+        refresh_after();
+        continue;
+      }
+      on_bad_checksum(&packet);
+      refresh_after();
+      /* One rejected candidate a pass (its rescan can take thousands of cycles): a flood of
+       * garbage cannot starve the control tick. The wake flag brings the next pass at once. */
+      board_wake_set();
+      return;
     } else if (uart_rx_available() && push_waiting_bytes(UINT8_MAX) != 0) {
       finder_dirty = true;
     } else if (uart_sniff == UART_SNIFF_ARMED) {
@@ -316,8 +322,8 @@ static void publish_adc(uint8_t channel, uint16_t reading) {
 static void update_led(void) {
   if (boot_blink_phase < BOOT_BLINK_PHASES) {
     board_led_set((boot_blink_phase & 1u) == 0);
-    if (--boot_blink_ms_left == 0) {
-      boot_blink_ms_left = BOOT_BLINK_MS;
+    if (++boot_blink_ms == BOOT_BLINK_MS) {
+      boot_blink_ms = 0;
       boot_blink_phase++;
     }
     return;
@@ -325,24 +331,11 @@ static void update_led(void) {
   board_led_set(control_led_on()); /* register 25, or the alarm blink (dxl_control.h) */
 }
 
-/* While a packet to this servo is coming in (the sniff has matched part of it) or its armed
- * reply waits for the main loop, a due control tick waits, at most TICK_DEFER_MAX_MS, so a
- * streamed reply is not held up behind a whole tick (about 140 us). */
-#define TICK_DEFER_MAX_MS 2u
-static uint16_t last_tick_ms;
-
-static bool tick_deferred(uint16_t now_ms) {
-  const uint8_t sniff = uart_sniff;
-  const bool packet_for_us = armed || (sniff != 0 && sniff <= UART_SNIFF_ARMED);
-  return packet_for_us && (uint16_t)(now_ms - last_tick_ms) < TICK_DEFER_MAX_MS;
-}
-
 static void service_tick(void) {
-  const uint16_t now_ms = timebase_ms();
-  if (tick_deferred(now_ms) || timebase_poll() == 0) {
+  if (timebase_poll() == 0) {
     return;
   }
-  last_tick_ms = now_ms;
+  const uint16_t now_ms = timebase_ms();
   if (armed && (uint16_t)(now_ms - armed_ms) >= ARM_TIMEOUT_MS && uart_reply_disarm()) {
     armed = false;
   }

@@ -196,20 +196,26 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
     const uint8_t slice_data_len = params[1];
     const uint8_t slices_bytes = (uint8_t)(p->param_count - 2u);
     const uint16_t slice_len = (uint16_t)(slice_data_len + 1u); /* 1..256 */
-    if (slice_data_len == 0 || slices_bytes == 0 || slices_bytes % slice_len != 0) {
+    if (slice_data_len == 0 || slices_bytes == 0) {
       return 0; /* LENGTH does not fit: the whole packet is ignored */
     }
-    for (uint16_t ofs = 2; ofs < p->param_count; ofs = (uint16_t)(ofs + slice_len)) {
-      if (params[ofs] != s->table[CT_ADDR_ID]) {
-        continue;
+    /* Every slice is walked (no division on the AVR): the slices must end exactly at the
+     * packet's end, else the whole packet is ignored. */
+    uint16_t own_ofs = 0;
+    uint16_t ofs = 2;
+    for (; ofs < p->param_count; ofs = (uint16_t)(ofs + slice_len)) {
+      if (own_ofs == 0 && params[ofs] == s->table[CT_ADDR_ID]) {
+        own_ofs = ofs;
       }
-      const uint8_t error = ct_check_write(s->table, start, &params[ofs + 1u], slice_data_len);
-      if (error == 0) {
-        plan_write(r, DXL_ACTION_WRITE, start, &params[ofs + 1u], slice_data_len);
-      }
-      return error;
     }
-    return 0;
+    if (ofs != p->param_count || own_ofs == 0) {
+      return 0;
+    }
+    const uint8_t error = ct_check_write(s->table, start, &params[own_ofs + 1u], slice_data_len);
+    if (error == 0) {
+      plan_write(r, DXL_ACTION_WRITE, start, &params[own_ofs + 1u], slice_data_len);
+    }
+    return error;
   }
   default:
     return DXL_ERR_INSTRUCTION;

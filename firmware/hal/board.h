@@ -33,6 +33,9 @@ void board_watchdog_kick(void);
 /* Start of a main loop pass: forget earlier wake-ups (the pass is about to look at everything). */
 static inline void board_wake_clear(void) { GPIOR0 &= (uint8_t)~_BV(BOARD_WAKE_BIT); }
 
+/* The main loop leaves work for its next pass: no sleep before it. */
+static inline void board_wake_set(void) { GPIOR0 |= _BV(BOARD_WAKE_BIT); }
+
 /* Idle sleep, race-free: call when the pass found nothing more to do. Sleeps unless an ISR
  * set the wake flag since board_wake_clear(); SEI and SLEEP are one step (the instruction
  * after SEI always runs, so an interrupt that became pending before cannot be missed).

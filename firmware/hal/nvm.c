@@ -10,7 +10,9 @@
 #define IMAGE_EEPROM_ADDR 0u
 
 static uint8_t image[DXL_IMAGE_BYTES];
-static uint8_t next_offset = DXL_IMAGE_BYTES; /* next offset to compare; BYTES = all done */
+/* Image bytes still to compare, from the end: the next offset is DXL_IMAGE_BYTES - this.
+ * Zero (all done) at reset, so the firmware has no initialised data (no copy loop). */
+static uint8_t bytes_left;
 
 /* EE_READY (wakeup_isr.S) only clears EERIE: while enabled it is raised for as long as the
  * EEPROM is ready; its job is to wake the main loop after a write. */
@@ -22,16 +24,16 @@ const uint8_t *nvm_load(void) {
 
 void nvm_persist(const uint8_t *eeprom_area) {
   dxl_image_build(image, eeprom_area);
-  next_offset = 0;
+  bytes_left = DXL_IMAGE_BYTES;
 }
 
-bool nvm_busy(void) { return next_offset < DXL_IMAGE_BYTES || !eeprom_is_ready(); }
+bool nvm_busy(void) { return bytes_left != 0 || !eeprom_is_ready(); }
 
-bool nvm_work_ready(void) { return next_offset < DXL_IMAGE_BYTES && eeprom_is_ready(); }
+bool nvm_work_ready(void) { return bytes_left != 0 && eeprom_is_ready(); }
 
 void nvm_service(void) {
   while (nvm_work_ready()) {
-    const uint8_t offset = next_offset++;
+    const uint8_t offset = (uint8_t)(DXL_IMAGE_BYTES - bytes_left--);
     uint8_t *const addr = (uint8_t *)(uintptr_t)(IMAGE_EEPROM_ADDR + offset);
     if (eeprom_read_byte(addr) != image[offset]) {
       eeprom_write_byte(addr, image[offset]);

@@ -14,7 +14,8 @@
 #error "UART_RX_RING_BYTES must be a power of two <= 128 (8-bit free-running indices)"
 #endif
 _Static_assert(DXL_HEADER_BYTE_ASM == DXL_HEADER_BYTE && DXL_INST_PING_ASM == DXL_INST_PING &&
-                   DXL_INST_WRITE_ASM == DXL_INST_WRITE && UART_SNIFF_WRITE_MIN_ADDR == DXL_STREAM_WRITE_MIN_ADDR &&
+                   DXL_INST_WRITE_ASM == DXL_INST_WRITE && DXL_ID_BROADCAST_ASM == DXL_ID_BROADCAST &&
+                   UART_SNIFF_WRITE_MIN_ADDR == DXL_STREAM_WRITE_MIN_ADDR &&
                    UART_STREAM_HEADER_BYTES == DXL_STREAM_HEADER_BYTES,
                "uart.h's assembler copies of the protocol values");
 #if UART_COMPA_EARLY_TICKS > 63 || UART_SPIN_COMPENSATION_TICKS > 63
@@ -46,13 +47,16 @@ volatile uint16_t uart_tx_delay_ticks; /* Return Delay Time in Timer1 ticks */
 volatile uint8_t uart_tx_next;        /* UDRE ISR: index of the next byte to write */
 volatile uint16_t uart_tx_start_tick; /* WAITING: TIMER1_COMPA spins until TCNT1 reaches it */
 volatile uint8_t uart_tx_published;   /* UDRE ISR sends bytes[0..published); RX ISR, main */
-volatile uint8_t uart_sniff = UART_SNIFF_OFF; /* RX ISR and main (ATOMIC) */
+volatile uint8_t uart_sniff; /* RX ISR and main (ATOMIC); OFF from uart_init() */
 volatile uint8_t uart_sniff_id;       /* the sniff's own state (RX ISR), set by uart_sniff_start */
 volatile uint8_t uart_sniff_mask;
 volatile uint8_t uart_sniff_instruction;
 volatile uint8_t uart_sniff_sum;
 volatile uint8_t uart_sniff_count;
 volatile uint8_t uart_sniff_end;
+volatile uint8_t uart_sniff_skip;         /* RX ISR: the packet being framed is another servo's */
+volatile uint8_t uart_sniff_packet_start; /* ring position of the framed packet's first byte:
+                                             the head when the sniff waits for a packet */
 const uint8_t *volatile uart_tx_bytes; /* the loaded reply (UDRE ISR reads) */
 volatile uint8_t uart_tx_length;
 
@@ -67,6 +71,7 @@ void uart_init(uint8_t baud_register) {
   UCSR0A = _BV(U2X0);
   UCSR0C = _BV(UCSZ01) | _BV(UCSZ00); /* 8N1 */
   uart_set_baud(baud_register);
+  uart_sniff = UART_SNIFF_OFF;
   UCSR0B = UART_UCSR0B_LISTEN;
 }
 
@@ -90,18 +95,16 @@ static inline __attribute__((always_inline)) void spin_until(uint16_t tick) {
  * packet's last byte, from the main loop: the moment may be close or already past.
  * Interrupts off. */
 static void reply_start_late(uint16_t rx_tick) {
-  if (uart_tx_mode != UART_START_NOW) {
-    const uint16_t start = (uint16_t)(rx_tick + uart_tx_delay_ticks - UART_SPIN_COMPENSATION_TICKS);
-    const uint16_t ocr = (uint16_t)(start - UART_COMPA_EARLY_TICKS);
-    if ((int16_t)(ocr - TCNT1) > LATE_MIN_LEAD_TICKS) {
-      uart_tx_start_tick = start;
-      OCR1A = ocr; /* a stale OCF1A: TIMER1_COMPA ignores it */
-      TIMSK1 = _BV(OCIE1A) | _BV(OCIE1B);
-      uart_tx_state = UART_REPLY_WAITING;
-      return;
-    }
-    spin_until(start);
+  const uint16_t start = (uint16_t)(rx_tick + uart_tx_delay_ticks - UART_SPIN_COMPENSATION_TICKS);
+  const uint16_t ocr = (uint16_t)(start - UART_COMPA_EARLY_TICKS);
+  if ((int16_t)(ocr - TCNT1) > LATE_MIN_LEAD_TICKS) {
+    uart_tx_start_tick = start;
+    OCR1A = ocr; /* a stale OCF1A: TIMER1_COMPA ignores it */
+    TIMSK1 = _BV(OCIE1A) | _BV(OCIE1B);
+    uart_tx_state = UART_REPLY_WAITING;
+    return;
   }
+  spin_until(start); /* at most UART_COMPA_EARLY_TICKS + LATE_MIN_LEAD_TICKS ahead, or past */
   reply_send_first();
 }
 
@@ -166,6 +169,7 @@ bool uart_sniff_start(uint8_t id, uint8_t mask) {
     if (uart_tx_state == UART_REPLY_IDLE && uart_rx_head == uart_rx_tail) {
       uart_sniff_id = id;
       uart_sniff_mask = mask;
+      uart_sniff_packet_start = uart_rx_head; /* and again after each dropped packet */
       uart_sniff = 0;
       started = true;
     }

@@ -49,21 +49,25 @@
 #define UART_REPLY_SENDING 3
 #define UART_REPLY_DONE 4
 
-/* Sniff state (uart_sniff): the byte the RX ISR expects next of a packet to this servo
- * (uart_rx.S); ARMED = it armed the reply at the last byte before the checksum (main loop:
- * take it over); OFF. */
+/* Sniff state (uart_sniff): the byte the RX ISR expects next of the packet it frames
+ * (uart_rx.S); below ARMED the sniff runs and holds the ring; ARMED = it armed the reply at
+ * the last byte before the checksum (main loop: take it over); OFF = the finder's. */
 #define UART_SNIFF_ID 2 /* 0, 1: the header's FF FF */
 #define UART_SNIFF_LENGTH 3
 #define UART_SNIFF_INSTRUCTION 4
 #define UART_SNIFF_FIRST_PARAM 5
 #define UART_SNIFF_BODY 6
-#define UART_SNIFF_ARMED 7
+#define UART_SNIFF_SKIP_CHECKSUM 7 /* another servo's packet: its checksum is next */
+#define UART_SNIFF_ARMED 8
 #define UART_SNIFF_OFF 0xFF
+/* While the sniff runs, at most this many bytes wait in the ring; one more ends it. */
+#define UART_SNIFF_MAX_HELD 96
 /* Protocol values the assembly needs (dxl_protocol.h / dxl_servo.h spell them with a u
  * suffix the assembler does not take; uart.c checks they agree). */
 #define DXL_HEADER_BYTE_ASM 0xFF
 #define DXL_INST_PING_ASM 1
 #define DXL_INST_WRITE_ASM 3
+#define DXL_ID_BROADCAST_ASM 0xFE
 #define UART_SNIFF_WRITE_MIN_ADDR 24 /* DXL_STREAM_WRITE_MIN_ADDR */
 #define UART_STREAM_HEADER_BYTES 3   /* DXL_STREAM_HEADER_BYTES: FF FF ID */
 
@@ -138,13 +142,19 @@ static inline bool uart_rx_pop(uint8_t *byte) {
 static inline uint8_t uart_reply_state(void) { return uart_tx_state; }
 
 /* The sniff (uart_rx.S). uart_sniff_start: with the ready PING reply loaded, state IDLE and
- * the ring empty, the RX ISR frames the next packet if it is for id with an instruction
- * whose bit is set in mask (dxl_servo_stream_mask) and arms the reply at its last byte
- * before the checksum (uart_sniff = UART_SNIFF_ARMED; uart_sniff_end = the ring position
- * just after the checksum). A PING answers with the loaded reply; anything else streams
- * its first UART_STREAM_HEADER_BYTES and waits for uart_reply_publish(). Returns false
- * when a byte came first. uart_sniff_stop: ends a sniff that has matched at most max_pos
- * bytes; true when no sniff runs afterwards (false: it has matched more, or armed). */
+ * the ring and the finder empty, the RX ISR frames the packets that come:
+ *   - one for id with an instruction whose bit is set in mask (dxl_servo_stream_mask): the
+ *     reply is armed at its last byte before the checksum (uart_sniff = UART_SNIFF_ARMED;
+ *     uart_sniff_end = the ring position just after the checksum). A PING answers with the
+ *     loaded reply; anything else streams its first UART_STREAM_HEADER_BYTES and waits for
+ *     uart_reply_publish();
+ *   - another servo's (not broadcast) with a good checksum: dropped from the ring whole
+ *     (the finder would frame it and do nothing), and the sniff goes on with the next;
+ *   - anything else: OFF, the held bytes are the finder's.
+ * While the sniff runs (uart_sniff < UART_SNIFF_ARMED) the main loop leaves the ring alone
+ * and the bytes do not wake it. Returns false when a byte came first. uart_sniff_stop: ends
+ * a sniff that has matched at most max_pos bytes; true when no sniff runs afterwards
+ * (false: it has matched more, or armed). */
 extern volatile uint8_t uart_sniff;
 extern volatile uint8_t uart_sniff_end;
 bool uart_sniff_start(uint8_t id, uint8_t mask);

@@ -35,13 +35,22 @@
  * before this byte, 0..UART_SNIFF_BODY), r25 = the byte. Each state either moves on, or ends
  * the sniff (UART_SNIFF_OFF: the finder handles the packet, the late path answers it). */
 .Lsniff:
+  lds r30, uart_rx_head              /* held bytes: past UART_SNIFF_MAX_HELD the finder takes over */
+  lds r31, uart_rx_tail
+  sub r30, r31
+  cpi r30, UART_SNIFF_MAX_HELD
+  brsh .Lsniff_off
   cpi r24, UART_SNIFF_ID
   brlo .Lsn_header                   /* 0, 1: FF FF */
   breq .Lsn_id
   cpi r24, UART_SNIFF_INSTRUCTION
   brlo .Lsn_length
   breq .Lsn_instruction
+  cpi r24, UART_SNIFF_SKIP_CHECKSUM
+  breq 9f
   rjmp .Lsn_param
+9:
+  rjmp .Lsn_skip_checksum
 .Lsn_header:
   cpi r25, DXL_HEADER_BYTE_ASM
   brne .Lsniff_off
@@ -50,9 +59,13 @@
 .Lsn_id:
   cpi r25, DXL_HEADER_BYTE_ASM       /* a further FF: still the header */
   breq .Lsn_keep
-  lds r30, uart_sniff_id
-  cp r25, r30
-  brne .Lsniff_off
+  cpi r25, DXL_ID_BROADCAST_ASM      /* acted on by every servo: the finder's */
+  breq .Lsniff_off
+  ldi r30, 0
+  lds r31, uart_sniff_id
+  cpse r25, r31
+  ldi r30, 1                         /* another servo's: framed, then dropped */
+  sts uart_sniff_skip, r30
   sts uart_sniff_sum, r25
   inc r24
   rjmp .Lsniff_next
@@ -67,7 +80,20 @@
   sts uart_sniff_count, r30
   inc r24
   rjmp .Lsniff_next
+.Lsniff_off:
+  ldi r24, UART_SNIFF_OFF
+.Lsniff_wake:
+  sbi _SFR_IO_ADDR(GPIOR0), BOARD_WAKE_BIT /* the main loop takes the held bytes */
+.Lsniff_next:
+  sts uart_sniff, r24
+.Lsn_keep:
+  rjmp .Lstore
+
 .Lsn_instruction:
+  ldi r24, UART_SNIFF_BODY
+  lds r30, uart_sniff_skip
+  tst r30
+  brne .Lsn_sum
   cpi r25, 8                         /* bit r25 of uart_sniff_mask */
   brsh .Lsniff_off
   sts uart_sniff_instruction, r25
@@ -83,13 +109,6 @@
   rjmp .Lsniff_off
   ldi r24, UART_SNIFF_FIRST_PARAM
   rjmp .Lsn_sum
-.Lsniff_off:
-  ldi r24, UART_SNIFF_OFF
-.Lsniff_next:
-  sts uart_sniff, r24
-.Lsn_keep:
-  rjmp .Lstore
-
 .Lsn_param:
   cpi r24, UART_SNIFF_FIRST_PARAM
   brne .Lsn_body
@@ -108,12 +127,17 @@
   dec r31
   sts uart_sniff_count, r31
   brne .Lsniff_next
-  /* Only the checksum is to come: arm. A PING armed at its instruction (LENGTH 2)
-   * answers with the loaded ready reply; anything else streams from it its header FF FF ID
-   * and waits for the main loop's uart_reply_publish(). */
+  ldi r24, UART_SNIFF_SKIP_CHECKSUM  /* only the checksum is to come */
+  lds r31, uart_sniff_skip
+  tst r31
+  brne .Lsniff_next
+  /* This servo's packet: arm. A PING armed at its instruction (LENGTH 2) answers with the
+   * loaded ready reply; anything else streams from it its header FF FF ID and waits for
+   * the main loop's uart_reply_publish(). */
   com r30
   sts uart_tx_checksum, r30
-  cpi r24, UART_SNIFF_FIRST_PARAM
+  lds r30, uart_sniff
+  cpi r30, UART_SNIFF_INSTRUCTION
   brne 5f
   lds r30, uart_sniff_instruction
   cpi r30, DXL_INST_PING_ASM
@@ -128,7 +152,26 @@
   ldi r30, UART_REPLY_ARMED
   sts uart_tx_state, r30
   ldi r24, UART_SNIFF_ARMED
-  rjmp .Lsniff_next
+  rjmp .Lsniff_wake
+
+/* The checksum of another servo's packet: when it is good, the whole packet (still all in
+ * the ring: the main loop leaves the ring alone while the sniff runs) is dropped by moving
+ * the head back, and the sniff waits for the next packet; the main loop is not woken. */
+.Lsn_skip_checksum:
+  lds r30, uart_sniff_sum
+  add r30, r25
+  cpi r30, 0xFF
+  brne 3f
+  lds r30, uart_sniff_packet_start
+  lds r31, uart_rx_tail
+  cp r30, r31
+  brne 3f
+  sts uart_rx_head, r30
+  ldi r24, 0
+  sts uart_sniff, r24
+  rjmp .Ltick
+3:
+  rjmp .Lsniff_off
 
   .global USART_RX_vect
 USART_RX_vect:
@@ -152,7 +195,7 @@ USART_RX_vect:
   push r31
   lds r24, uart_sniff
   cpi r24, UART_SNIFF_ARMED
-  brsh .Lstore
+  brsh .Lstore_wake
   rjmp .Lsniff                       /* a sniff is under way (reply IDLE) */
 
 .Lline_error:
@@ -183,7 +226,7 @@ USART_RX_vect:
   push r31
   ldi r24, UART_REPLY_IDLE           /* the main loop handles the packet as usual */
   sts uart_tx_state, r24
-  rjmp .Lstore
+  rjmp .Lstore_wake
 
 .Ldelayed:
   push r30
@@ -212,6 +255,8 @@ USART_RX_vect:
   ldi r24, UART_REPLY_SENDING
   sts uart_tx_state, r24
 
+.Lstore_wake:
+  sbi _SFR_IO_ADDR(GPIOR0), BOARD_WAKE_BIT /* a byte for the main loop */
 .Lstore:
   lds r24, uart_rx_head
   lds r30, uart_rx_tail
@@ -228,7 +273,6 @@ USART_RX_vect:
   inc r24
   sts uart_rx_head, r24              /* publish the byte after it is stored */
 .Ltick:
-  sbi _SFR_IO_ADDR(GPIOR0), BOARD_WAKE_BIT
   sts uart_rx_tick, r18
   sts uart_rx_tick + 1, r19
   pop r31
@@ -259,7 +303,7 @@ USART_RX_vect:
   sts _SFR_MEM_ADDR(TIMSK1), r24
   ldi r24, UART_REPLY_WAITING
   sts uart_tx_state, r24
-  rjmp .Lstore
+  rjmp .Lstore_wake
 
 /* TIMER1_COMPA: UART_COMPA_EARLY_TICKS before a WAITING reply's start tick. Spins to the exact
  * tick, starts the reply and switches COMPA off. An entry before that is a stale OCF1A from an
