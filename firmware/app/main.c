@@ -114,17 +114,9 @@ static void send_response(void) {
   }
 }
 
-/* A packet whose reply the sniff started: a PING's ready reply is complete; anything else
- * streamed its header and waits for the rest (dxl_servo.h "Streamed replies": prepared
- * replies of such packets are non-empty with nothing after them). */
-static void on_streamed_packet(const dxl_packet_t *packet) {
-  if (packet->instruction != DXL_INST_PING || packet->param_count != 0) {
-    dxl_servo_prepare(&servo, packet, &response);
-    uart_reply_publish(response.length);
-    dxl_servo_commit(&servo, &response);
-  }
-  after_reply = 0;
-}
+/* The armed packet's prepared response is to be committed when its checksum matches (a
+ * PING's ready reply needs nothing). */
+static bool stream_commits;
 
 static void on_packet(const dxl_packet_t *packet) {
   dxl_servo_prepare(&servo, packet, &response);
@@ -157,7 +149,7 @@ static __attribute__((noinline)) void sniff_start(void) {
   /* Callers: nothing armed. */
   if (link_free() && finder.fill == finder.release && uart_sniff == UART_SNIFF_OFF) {
     uart_reply_load(response.bytes, DXL_PING_REPLY_BYTES, response.delay_us);
-    (void)uart_sniff_start(servo.table[CT_ADDR_ID], dxl_servo_stream_mask(&servo));
+    uart_sniff_start(servo.table[CT_ADDR_ID], dxl_servo_stream_mask(&servo));
   }
 }
 
@@ -179,11 +171,11 @@ static __attribute__((noinline)) void refresh_ping_reply(void) {
   }
 }
 
-/* After a packet handled without a reply under way: the ready PING reply is rebuilt when
- * the packet changed something or a reply used its buffer; another servo's packet (the
- * usual case on a busy bus) changes neither. */
+/* After a packet handled: the ready PING reply is rebuilt when the packet changed something
+ * (a reply that used the buffer rebuilds it when it has left); another servo's packet, the
+ * usual case on a busy bus, changes nothing. */
 static void refresh_after(void) {
-  if (response.length != 0 || response.action != DXL_ACTION_NONE) {
+  if (response.action != DXL_ACTION_NONE) {
     refresh_ping_reply();
   }
 }
@@ -234,25 +226,45 @@ static void service_rx(void) {
   for (;;) {
     adopt_sniffed();
     if (armed) {
-      const uint8_t moved = push_waiting_bytes(armed_to_come);
-      if (moved == 0) {
-        return; /* the checksum byte is still on the wire */
-      }
-      armed_to_come = (uint8_t)(armed_to_come - moved);
-      if (armed_to_come != 0) {
-        /* Examine them now, so only the checksum is left when it comes: the finder sees the
-         * same candidate as the sniff (both started empty), so this is DXL_FIND_NONE. */
-        (void)dxl_finder_next(&finder, &packet);
+      /* The sniff armed the reply of the packet in the ring (the main loop has not taken any
+       * of its bytes): everything but the checksum goes to the finder first, and the reply is
+       * prepared then, while the checksum is still on the wire. A PING answers with the ready
+       * reply; anything else streamed its header and waits for the rest, published here
+       * (dxl_servo.h "Streamed replies": the prepared reply of such a packet is non-empty
+       * with nothing after it). */
+      if (armed_to_come > 1) {
+        const uint8_t moved = push_waiting_bytes((uint8_t)(armed_to_come - 1u));
+        if (moved == 0) {
+          return;
+        }
+        armed_to_come = (uint8_t)(armed_to_come - moved);
+        (void)dxl_finder_next(&finder, &packet); /* the same candidate as the sniff: NONE */
+        if (armed_to_come == 1) {
+          dxl_finder_candidate(&finder, &packet);
+          stream_commits = packet.instruction != DXL_INST_PING || packet.param_count != 0;
+          if (stream_commits) {
+            dxl_servo_prepare(&servo, &packet, &response);
+            uart_reply_publish(response.length);
+          }
+        }
         continue;
+      }
+      if (push_waiting_bytes(1) == 0) {
+        return; /* the checksum byte is still on the wire */
       }
       finder_dirty = true;
       armed = false;
       if (uart_reply_state() != UART_REPLY_IDLE) {
-        /* The UART matched the checksum and started the reply: the finder completes the same
-         * packet (DXL_FIND_PACKET), the checksum being the last byte pushed. */
+        /* The checksum matched and the reply is under way: the finder completes the same
+         * packet (DXL_FIND_PACKET); commit what was prepared. */
         (void)dxl_finder_next(&finder, &packet);
-        on_streamed_packet(&packet);
+        if (stream_commits) {
+          dxl_servo_commit(&servo, &response);
+        }
+        after_reply = 0;
         finder_dirty = false;
+      } else if (stream_commits) {
+        refresh_ping_reply(); /* nothing was sent, but the prepared reply took the buffer */
       }
       continue; /* a mismatch is handled below like any byte */
     }
@@ -344,7 +356,7 @@ static void service_tick(void) {
   const uint8_t head = uart_rx_head;
   if (uart_sniff != 0 && uart_sniff < UART_SNIFF_ARMED && head == sniff_seen_head) {
     if (++sniff_age_ms >= SNIFF_MAX_MS) {
-      (void)uart_sniff_stop(UART_SNIFF_ARMED - 1u);
+      uart_sniff_stop_part_way();
     }
   } else {
     sniff_age_ms = 0;

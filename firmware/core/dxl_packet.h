@@ -75,6 +75,12 @@ dxl_find_result_t dxl_finder_next(dxl_finder_t *finder, dxl_packet_t *packet);
  * while idle (the gap is also checked on every push). */
 bool dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms);
 
+/* The candidate as examined so far: valid once its instruction has been examined (and the
+ * finder returned DXL_FIND_NONE since); its checksum field is meaningful only once the
+ * checksum is in. Lets the caller prepare a reply while the last bytes are still on the
+ * wire, when it knows from elsewhere (the firmware's sniff) where the candidate ends. */
+void dxl_finder_candidate(const dxl_finder_t *finder, dxl_packet_t *packet);
+
 /* True when every byte of a packet but its checksum is in: *packet then describes it and
  * *expected_checksum is the checksum that would make it valid. Lets the caller prepare the
  * reply while the last byte is still on the wire. */

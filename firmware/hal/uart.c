@@ -163,28 +163,21 @@ void uart_reply_publish(uint8_t length) {
   }
 }
 
-bool uart_sniff_start(uint8_t id, uint8_t mask) {
-  bool started = false;
+void uart_sniff_start(uint8_t id, uint8_t mask) {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
     if (uart_tx_state == UART_REPLY_IDLE && uart_rx_head == uart_rx_tail) {
       uart_sniff_id = id;
       uart_sniff_mask = mask;
       uart_sniff_packet_start = uart_rx_head; /* and again after each dropped packet */
       uart_sniff = 0;
-      started = true;
     }
   }
-  return started;
 }
 
-bool uart_sniff_stop(uint8_t max_pos) {
-  uint8_t s;
+void uart_sniff_stop_part_way(void) {
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-    s = uart_sniff;
-    if (s <= max_pos) {
-      s = UART_SNIFF_OFF;
-      uart_sniff = s;
+    if (uart_sniff < UART_SNIFF_ARMED) {
+      uart_sniff = UART_SNIFF_OFF;
     }
   }
-  return s == UART_SNIFF_OFF;
 }

@@ -152,13 +152,13 @@ static inline uint8_t uart_reply_state(void) { return uart_tx_state; }
  *     (the finder would frame it and do nothing), and the sniff goes on with the next;
  *   - anything else: OFF, the held bytes are the finder's.
  * While the sniff runs (uart_sniff < UART_SNIFF_ARMED) the main loop leaves the ring alone
- * and the bytes do not wake it. Returns false when a byte came first. uart_sniff_stop: ends
- * a sniff that has matched at most max_pos bytes; true when no sniff runs afterwards
- * (false: it has matched more, or armed). */
+ * and the bytes do not wake it. Does nothing when a byte came first.
+ * uart_sniff_stop_part_way: ends a running sniff (not one that has armed); the held bytes
+ * are then the finder's. */
 extern volatile uint8_t uart_sniff;
 extern volatile uint8_t uart_sniff_end;
-bool uart_sniff_start(uint8_t id, uint8_t mask);
-bool uart_sniff_stop(uint8_t max_pos);
+void uart_sniff_start(uint8_t id, uint8_t mask);
+void uart_sniff_stop_part_way(void);
 
 /* The rest of a streamed reply is in the loaded buffer: bytes[0..length). Any state. */
 void uart_reply_publish(uint8_t length);
