@@ -6,19 +6,19 @@
  * everything else runs here, in one loop that never blocks:
  *   1. reply bookkeeping: send a reply that waited for its EEPROM write; after a reply's
  *      last byte, apply what follows it (factory reset, new baud);
- *   2. receive: feed ring bytes to the packet finder; handle each packet; when only the
- *      checksum byte is missing, prepare the reply and arm it (fast reply path, below);
+ *   2. receive: the packet whose reply the RX ISR's sniff armed (prepare and publish it
+ *      before its checksum, commit after), or ring bytes through the packet finder;
  *   3. control tick (1 kHz): ADC, publish Present Position / Voltage / Temperature,
- *      control_tick(), LED, finder gap timeout;
+ *      control_tick(), LED, finder gap timeout, ready PING reply;
  *   4. EEPROM: one byte of a pending image write when the EEPROM is ready;
- *   5. idle sleep until the next interrupt.
+ *   5. idle sleep unless an ISR set the wake flag during the pass.
  *
- * Fast reply path: dxl_servo_prepare() is pure, so the reply to a packet is computed while
- * its checksum byte is still on the wire and handed to the UART with the checksum that
- * would complete the packet (uart_reply_arm). The RX ISR starts it the moment that byte
- * arrives; the main loop then sees the packet complete and commits the prepared response.
- * Replies whose packet changes the EEPROM are never armed: the packet is committed, the
- * image written, and only then the reply sent, so the reply proves the value is stored.
+ * Replies (docs/firmware.md "Reply timing"): the sniff in the RX ISR frames a packet to this
+ * servo and arms its reply at the last byte before the checksum, so the reply starts on time
+ * whatever the main loop is doing; dxl_servo_prepare() is pure, so the rest is prepared while
+ * the checksum is still on the wire. Replies whose packet changes the EEPROM are never armed:
+ * the packet is committed, the image written, and only then the reply sent, so the reply
+ * proves the value is stored.
  */
 #include <avr/interrupt.h>
 #include <util/atomic.h>

@@ -161,15 +161,3 @@ dxl_find_result_t dxl_finder_next(dxl_finder_t *finder, dxl_packet_t *packet) {
     f->examined++;
   }
 }
-
-bool dxl_finder_awaiting_checksum(const dxl_finder_t *finder, dxl_packet_t *packet, uint8_t *expected_checksum) {
-  const dxl_finder_t *f = finder;
-  if (f->release != 0 || f->examined != f->fill || f->examined <= OFS_LENGTH ||
-      f->examined + 1u != candidate_total_bytes(f)) {
-    return false;
-  }
-  describe(f, packet); /* its checksum is the byte beyond the examined ones: set below */
-  *expected_checksum = (uint8_t)~f->sum;
-  packet->checksum = *expected_checksum;
-  return true;
-}

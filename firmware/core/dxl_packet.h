@@ -81,11 +81,6 @@ bool dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms);
  * wire, when it knows from elsewhere (the firmware's sniff) where the candidate ends. */
 void dxl_finder_candidate(const dxl_finder_t *finder, dxl_packet_t *packet);
 
-/* True when every byte of a packet but its checksum is in: *packet then describes it and
- * *expected_checksum is the checksum that would make it valid. Lets the caller prepare the
- * reply while the last byte is still on the wire. */
-bool dxl_finder_awaiting_checksum(const dxl_finder_t *finder, dxl_packet_t *packet, uint8_t *expected_checksum);
-
 /* The Protocol 1.0 checksum of ID, LENGTH and the body bytes. */
 uint8_t dxl_checksum(const uint8_t *id_length_body, uint16_t count);
 

@@ -2,8 +2,9 @@
  *
  * Receive: the RX ISR (uart_rx.S) moves each byte into a single-producer single-consumer
  * ring and notes the Timer1 tick at which it read the byte. The ISR is the only writer of
- * uart_rx_head, the main loop (uart_rx_pop) the only writer of uart_rx_tail; both are 8-bit
- * and free-running (the ring index is the low bits), so each is read and written in one
+ * uart_rx_head (it also moves it back over a packet the sniff drops, while the main loop
+ * leaves the ring alone), the main loop the only writer of uart_rx_tail; both are 8-bit and
+ * free-running (the ring index is the low bits), so each is read and written in one
  * instruction and never torn; the ring is full when head - tail == UART_RX_RING_BYTES.
  *
  * Transmit: one status packet at a time, from a buffer the caller keeps unchanged until
@@ -12,15 +13,15 @@
  *
  * Reply timing (POLICY.md "Replies"): the first byte is written to UDR0 2 us x Return Delay
  * Time after the RX interrupt of the instruction's last byte. Three ways to start it:
- *   - armed: while the checksum byte is still on the wire the main loop arms the reply with
- *     the checksum that completes the packet (uart_reply_arm); the RX ISR starts it the
- *     moment that byte arrives and matches (RDT 0: writes UDR0 itself; short delays: spins
- *     on TCNT1; longer: sets OCR1A and TIMER1_COMPA starts it);
+ *   - armed: the RX ISR's sniff (below) arms the reply at the packet's last byte before the
+ *     checksum, with the checksum that completes it; the RX ISR starts it the moment that
+ *     byte arrives and matches (RDT 0-1: writes UDR0 itself; short delays: spins on TCNT1;
+ *     longer: sets OCR1A and TIMER1_COMPA starts it);
  *   - late: after the packet was handled, from the tick of its last byte if that moment is
  *     still ahead, at once otherwise (uart_reply_start);
  *   - now: after an EEPROM write, which takes milliseconds (uart_reply_start_now).
  *
- * Execution contexts: USART_RX (uart_rx.S), USART_UDRE, USART_TX and TIMER1_COMPA (uart.c)
+ * Execution contexts: USART_RX, USART_UDRE and TIMER1_COMPA (uart_rx.S), USART_TX (uart.c)
  * ISRs; every function here is for the main loop only.
  * Budget: at 1 Mbps a byte arrives every 160 cycles (docs/firmware.md has the measured ISR
  * costs).
@@ -119,25 +120,8 @@ extern volatile uint8_t uart_tx_state; /* UART_REPLY_* */
 extern volatile uint8_t uart_rx_dropped_count;
 extern volatile uint8_t uart_rx_line_error_count;
 
-/* Bytes waiting in the ring, and the one offset bytes after the oldest (offset < waiting). */
-static inline uint8_t uart_rx_waiting(void) { return (uint8_t)(uart_rx_head - uart_rx_tail); }
-static inline uint8_t uart_rx_peek(uint8_t offset) {
-  return uart_rx_ring[(uint8_t)(uart_rx_tail + offset) & UART_RX_RING_MASK];
-}
-
 /* True when the ring holds a byte. */
 static inline bool uart_rx_available(void) { return uart_rx_head != uart_rx_tail; }
-
-/* Takes the oldest received byte; false when the ring is empty. */
-static inline bool uart_rx_pop(uint8_t *byte) {
-  const uint8_t tail = uart_rx_tail;
-  if (uart_rx_head == tail) {
-    return false;
-  }
-  *byte = uart_rx_ring[tail & UART_RX_RING_MASK];
-  uart_rx_tail = (uint8_t)(tail + 1u);
-  return true;
-}
 
 static inline uint8_t uart_reply_state(void) { return uart_tx_state; }
 
@@ -169,22 +153,12 @@ void uart_reply_publish(uint8_t length);
  * until the state is DONE. */
 void uart_reply_load(const uint8_t *bytes, uint8_t length, uint16_t delay_us);
 
-/* Arms the loaded reply for a received byte still to come: the checksum expected_checksum,
- * which is the (skip + 1)-th byte after the last one the main loop popped. The RX ISR lets
- * skip bytes pass, then compares. Returns the new state:
- *   ARMED            the byte is not in yet; the RX ISR will start the reply if it matches;
- *   WAITING/SENDING  the byte was already in the ring and matched: started from its tick;
- *   IDLE             the byte was already in and differs: nothing started.
- * The bytes themselves still go through the ring as usual. A PING is armed with skip 1 as
- * soon as its LENGTH is examined: given ID and LENGTH 2, a matching checksum proves both the
- * instruction (PING) and the checksum. */
-uint8_t uart_reply_arm(uint8_t expected_checksum, uint8_t skip);
-
 /* ARMED -> IDLE. Returns false when the RX ISR had already started the reply. */
 bool uart_reply_disarm(void);
 
 /* Starts the loaded reply after a packet the main loop has just completed (its last byte
- * popped): 2 us x RDT after that byte's RX interrupt if that is still ahead, else now. */
+ * popped): 2 us x RDT after that byte's RX interrupt if that is still ahead (TIMER1_COMPA,
+ * or a spin of at most 16 ticks), else now. */
 void uart_reply_start(void);
 
 /* Starts the loaded reply now, whatever the Return Delay Time. */

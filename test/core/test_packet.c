@@ -3,6 +3,7 @@
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
+#include <stdio.h>
 #include <string.h>
 
 #include <cmocka.h>
@@ -289,45 +290,124 @@ static void test_the_longest_packet_length_255_is_found(void **state) {
   assert_memory_equal(run.found[0].params, params, sizeof params);
 }
 
-static void test_awaiting_checksum_describes_the_packet_before_its_last_byte(void **state) {
+/* The firmware prepares a streamed reply from the candidate once every byte but the
+ * checksum is in and examined: leading extra 0xFF bytes are gone by then. */
+static void test_the_candidate_describes_the_packet_before_its_checksum(void **state) {
   (void)state;
   finder_run_t run;
   given_finder(&run, 0);
   dxl_packet_t packet;
-  uint8_t expected = 0;
-  const uint8_t read[] = {0xFF, 0xFF, 0x01, 0x04, 0x02, 0x2B, 0x01, 0xCC}; /* manual example 2 */
-  for (size_t i = 0; i + 1 < sizeof read; i++) {
-    assert_false(dxl_finder_awaiting_checksum(&run.finder, &packet, &expected));
-    when_bytes_arrive(&run, &read[i], 1);
-  }
-  assert_true(dxl_finder_awaiting_checksum(&run.finder, &packet, &expected));
-  assert_int_equal(expected, 0xCC);
+  /* manual example 2 with a third header byte, without its checksum 0xCC */
+  ARRIVE(&run, 0xFF, 0xFF, 0xFF, 0x01, 0x04, 0x02, 0x2B, 0x01);
+  assert_int_equal(run.count, 0);
+  dxl_finder_candidate(&run.finder, &packet);
   assert_int_equal(packet.id, 1);
   assert_int_equal(packet.instruction, DXL_INST_READ);
   assert_int_equal(packet.param_count, 2);
   assert_int_equal(packet.params[0], 0x2B);
   assert_int_equal(packet.params[1], 0x01);
-  when_bytes_arrive(&run, &read[sizeof read - 1], 1);
+  ARRIVE(&run, 0xCC);
   assert_int_equal(run.count, 1);
-  assert_false(dxl_finder_awaiting_checksum(&run.finder, &packet, &expected));
+  then_found_packet(&run, 0, 1, DXL_INST_READ, 2);
 }
 
-static void test_awaiting_checksum_is_false_while_garbage_is_pending(void **state) {
-  (void)state;
-  finder_run_t run;
-  given_finder(&run, 0);
+/* The firmware pushes whatever the ring holds in one batch (dxl_finder_push_slot) and only
+ * then runs the finder; a host pushes byte by byte. A seeded stream of packets (some with a
+ * bad checksum), garbage rich in 0xFF and gaps, cut into batches of 1..40 bytes, gives the
+ * same results in the same order. */
+static uint32_t next_random(uint32_t *state) {
+  *state = *state * 1664525u + 1013904223u;
+  return *state >> 8;
+}
+
+typedef struct {
+  dxl_finder_t finder;
+  uint32_t digest[2048]; /* one per result: kind, id, instruction, count, params */
+  size_t count;
+} digest_run_t;
+
+static void digest_results(digest_run_t *run) {
   dxl_packet_t packet;
-  uint8_t expected;
-  /* the bytes are pushed but not yet examined: no claim is made */
-  dxl_finder_push(&run.finder, 0xFF, 0);
-  dxl_finder_push(&run.finder, 0xFF, 0);
-  dxl_finder_push(&run.finder, 0x01, 0);
-  dxl_finder_push(&run.finder, 0x02, 0);
-  dxl_finder_push(&run.finder, 0x01, 0);
-  assert_false(dxl_finder_awaiting_checksum(&run.finder, &packet, &expected));
-  assert_int_equal(dxl_finder_next(&run.finder, &packet), DXL_FIND_NONE);
-  assert_true(dxl_finder_awaiting_checksum(&run.finder, &packet, &expected));
-  assert_int_equal(expected, 0xFB);
+  dxl_find_result_t kind;
+  while ((kind = dxl_finder_next(&run->finder, &packet)) != DXL_FIND_NONE) {
+    uint32_t d = (uint32_t)kind * 16777619u ^ packet.id;
+    d = d * 16777619u ^ packet.instruction;
+    d = d * 16777619u ^ packet.param_count;
+    for (unsigned i = 0; i < packet.param_count; i++) {
+      d = d * 16777619u ^ packet.params[i];
+    }
+    assert_true(run->count < sizeof run->digest / sizeof run->digest[0]);
+    run->digest[run->count++] = d;
+  }
+}
+
+static size_t random_stream(uint8_t *out, size_t capacity, bool *gap_before, uint32_t *seed) {
+  size_t n = 0;
+  while (n + 16 < capacity) {
+    gap_before[n] = next_random(seed) % 16u == 0;
+    if (next_random(seed) % 4u == 0) { /* garbage */
+      out[n++] = (next_random(seed) & 1u) ? 0xFF : (uint8_t)next_random(seed);
+      continue;
+    }
+    const uint8_t params[3] = {(uint8_t)next_random(seed), (uint8_t)next_random(seed), 0xFF};
+    uint8_t packet[16];
+    const size_t length = build_packet(packet, (uint8_t)(next_random(seed) % 4u), (uint8_t)(1u + next_random(seed) % 6u),
+                                       params, next_random(seed) % 4u);
+    if (next_random(seed) % 8u == 0) {
+      packet[length - 1] ^= 0x01; /* a bad checksum */
+    }
+    memcpy(&out[n], packet, length);
+    n += length;
+  }
+  return n;
+}
+
+static void test_batches_find_what_single_bytes_find(void **state) {
+  (void)state;
+  enum { STREAM = 6000 };
+  static uint8_t stream[STREAM];
+  static bool gap_before[STREAM];
+  static digest_run_t single, batched;
+  uint32_t seed = 20261121u;
+  const size_t n = random_stream(stream, STREAM, gap_before, &seed);
+  dxl_finder_init(&single.finder);
+  dxl_finder_init(&batched.finder);
+  uint16_t now_ms = 0;
+  for (size_t i = 0; i < n;) {
+    size_t batch = 1u + next_random(&seed) % 40u;
+    if (batch > n - i) {
+      batch = n - i;
+    }
+    for (size_t k = 1; k < batch; k++) { /* a gap only ever comes before a batch */
+      if (gap_before[i + k]) {
+        batch = k;
+        break;
+      }
+    }
+    now_ms = (uint16_t)(now_ms + (gap_before[i] ? DXL_PACKET_GAP_TIMEOUT_MS + 1u : 0u));
+    dxl_finder_poll(&single.finder, now_ms);
+    digest_results(&single);
+    dxl_finder_poll(&batched.finder, now_ms);
+    digest_results(&batched);
+    for (size_t k = 0; k < batch; k++) {
+      dxl_finder_push(&single.finder, stream[i + k], now_ms);
+      digest_results(&single);
+    }
+    for (size_t pushed = 0; pushed < batch;) {
+      uint16_t room;
+      uint8_t *slot = dxl_finder_push_slot(&batched.finder, &room, now_ms);
+      const size_t take = room < batch - pushed ? room : batch - pushed;
+      memcpy(slot, &stream[i + pushed], take);
+      dxl_finder_pushed(&batched.finder, (uint16_t)take, now_ms);
+      pushed += take;
+      digest_results(&batched);
+    }
+    i += batch;
+  }
+  printf("batches vs single bytes: %zu results each over %zu bytes\n", single.count, n);
+  assert_true(single.count > 300u);
+  assert_int_equal(batched.count, single.count);
+  assert_memory_equal(batched.digest, single.digest, single.count * sizeof single.digest[0]);
 }
 
 static void test_checksum_matches_the_manual_examples(void **state) {
@@ -359,8 +439,8 @@ int main(void) {
       cmocka_unit_test(test_status_packets_of_other_servos_are_framed),
       cmocka_unit_test(test_back_to_back_packets_are_each_found),
       cmocka_unit_test(test_the_longest_packet_length_255_is_found),
-      cmocka_unit_test(test_awaiting_checksum_describes_the_packet_before_its_last_byte),
-      cmocka_unit_test(test_awaiting_checksum_is_false_while_garbage_is_pending),
+      cmocka_unit_test(test_the_candidate_describes_the_packet_before_its_checksum),
+      cmocka_unit_test(test_batches_find_what_single_bytes_find),
       cmocka_unit_test(test_checksum_matches_the_manual_examples),
   };
   return cmocka_run_group_tests_name("packet finder (" AX12_PROFILE_NAME ")", tests, NULL, NULL);
