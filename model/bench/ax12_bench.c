@@ -241,7 +241,7 @@ static void sustained(unsigned servos, double seconds) {
     const unsigned goal = (phase & 1) ? 300 + id * 10 : 700 - id * 10;
     wrong_goals += !(got == 8 && (unsigned)(reply[5] | reply[6] << 8) == goal);
   }
-  const long expected_ticks = (long)(elapsed_ms + 0.5) * (long)servos;
+  const long expected_ticks = (long)elapsed_ms * (long)servos; /* whole milliseconds: each servo may count one more */
   printf("{\"servos\": %u, \"simulated_s\": %.3f, \"packets\": %u, \"bytes\": %zu, \"wire_busy_fraction\": %.4f, "
          "\"bytes_lost_uart_overrun\": %llu, \"bytes_dropped_by_firmware\": %ld, \"goals_wrong_after_load\": %u, "
          "\"timer_ticks\": %ld, \"timer_ticks_expected\": %ld, \"control_ticks_run\": %ld}\n",
