@@ -42,9 +42,6 @@
 #define BOOT_BLINK_MS 100u
 #define BOOT_BLINK_PHASES 4u
 
-/* An armed reply is withdrawn this long after the packet's last-but-one byte, before the
- * finder's own gap timeout (DXL_PACKET_GAP_TIMEOUT_MS) could drop the packet under it. */
-#define ARM_TIMEOUT_MS (DXL_PACKET_GAP_TIMEOUT_MS - 2u)
 
 /* ADC conversions, one per control tick: the pot every other tick. */
 static const DXL_FLASH uint8_t adc_sequence[] = {ADC_CH_POT, ADC_CH_SUPPLY, ADC_CH_POT, ADC_CH_TEMP};
@@ -61,7 +58,6 @@ static bool armed;               /* the sniff armed the reply of the packet whos
                                     byte is armed_to_come bytes ahead; the UART may already
                                     have started it */
 static uint8_t armed_to_come;    /* bytes still to pop, the checksum included */
-static uint16_t armed_ms;
 static bool finder_dirty;        /* bytes pushed or a result taken since dxl_finder_next() last
                                     said DXL_FIND_NONE */
 static bool reply_waits_for_nvm; /* response is loaded; send it once the image is written */
@@ -187,7 +183,6 @@ static void adopt_sniffed(void) {
     uart_sniff = UART_SNIFF_OFF;
     armed = true;
     armed_to_come = (uint8_t)(uart_sniff_end - uart_rx_tail);
-    armed_ms = timebase_ms();
   }
 }
 
@@ -348,15 +343,18 @@ static void service_tick(void) {
     return;
   }
   const uint16_t now_ms = timebase_ms();
-  if (armed && (uint16_t)(now_ms - armed_ms) >= ARM_TIMEOUT_MS && uart_reply_disarm()) {
-    armed = false;
-  }
-  /* A sniff whose packet stopped part-way (no byte for SNIFF_MAX_MS) ends, long before the
-   * finder's gap timeout could split what it matched. */
+  /* A packet the RX ISR holds (a sniff part-way, or an armed reply whose checksum does not
+   * come) is given up after SNIFF_MAX_MS without a byte, long before the finder's gap
+   * timeout could split it: its bytes go to the finder, which applies the gap rule. */
   const uint8_t head = uart_rx_head;
-  if (uart_sniff != 0 && uart_sniff < UART_SNIFF_ARMED && head == sniff_seen_head) {
+  const uint8_t sniff = uart_sniff;
+  if ((armed || (sniff != 0 && sniff < UART_SNIFF_ARMED)) && head == sniff_seen_head) {
     if (++sniff_age_ms >= SNIFF_MAX_MS) {
       uart_sniff_stop_part_way();
+      if (armed && uart_reply_disarm()) {
+        armed = false;
+        refresh_ping_reply(); /* a streamed reply may have been prepared into its buffer */
+      }
     }
   } else {
     sniff_age_ms = 0;
@@ -374,7 +372,11 @@ static void service_tick(void) {
   __asm__ __volatile__("" ::: "memory"); /* the RX ISR may have armed meanwhile */
   control_tick_count++;
   update_led();
-  refresh_ping_reply();
+  /* The ready PING reply follows the conditions (anything else that changes it comes with a
+   * packet or a reply, which rebuild it): rebuilt only when its error byte would change. */
+  if (dxl_servo_conditions(&servo) != response.bytes[DXL_STATUS_ERROR_OFFSET]) {
+    refresh_ping_reply();
+  }
 }
 
 /* Work that no ISR flags: an EEPROM byte to write, a reply whose EEPROM write has finished.

@@ -28,6 +28,9 @@
 #define DXL_ERR_CONDITIONS (DXL_ERR_VOLTAGE | DXL_ERR_ANGLE_LIMIT | DXL_ERR_OVERHEATING | DXL_ERR_OVERLOAD)
 #define DXL_ERR_EVENTS (DXL_ERR_RANGE | DXL_ERR_CHECKSUM | DXL_ERR_INSTRUCTION)
 
+/* Offset of the error byte in a status packet: FF FF ID LENGTH ERROR PARAMS... CHECKSUM. */
+#define DXL_STATUS_ERROR_OFFSET 4u
+
 /* Inter-byte gap that discards a partial packet. */
 #define DXL_PACKET_GAP_TIMEOUT_MS 100u
 

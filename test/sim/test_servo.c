@@ -174,6 +174,27 @@ static void test_reply_starts_two_us_times_return_delay_time_after_the_stop_bit(
   harness_close(&h);
 }
 
+/* A READ whose checksum never comes: its reply was armed (and, streamed, prepared) at the
+ * byte before; after a gap of more than 100 ms the partial packet is gone without a reply, and
+ * the next PING gets the ready reply, byte for byte, at every Return Delay Time mode. */
+static void test_a_packet_cut_before_its_checksum_is_dropped_and_the_next_answered(void **state) {
+  (void)state;
+  harness_t h;
+  open_one(&h, NULL);
+  static const uint8_t rdts[] = {0, 3, 250};
+  for (size_t r = 0; r < sizeof rdts; r++) {
+    write_byte(&h, 1, 5, rdts[r]);
+    uint8_t read[16];
+    const size_t len = harness_packet(read, 1, DXL_INST_READ, HP(36, 2));
+    uint8_t reply[64];
+    assert_int_equal(harness_exchange(&h, read, len - 1u, 0, reply, sizeof reply), 0); /* silence */
+    world_run_until(h.world, h.world->now + sim_ms(120));
+    const size_t n = harness_request(&h, 1, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0), reply);
+    expect_bytes(reply, n, ping_reply_id1, sizeof(ping_reply_id1));
+  }
+  harness_close(&h);
+}
+
 static void test_a_baud_change_replies_at_the_old_baud_then_only_the_new_one_works(void **state) {
   (void)state;
   harness_t h;
@@ -375,6 +396,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_ping_is_answered_on_the_wire),
       cmocka_unit_test(test_reply_starts_two_us_times_return_delay_time_after_the_stop_bit),
+      cmocka_unit_test(test_a_packet_cut_before_its_checksum_is_dropped_and_the_next_answered),
       cmocka_unit_test(test_a_baud_change_replies_at_the_old_baud_then_only_the_new_one_works),
       cmocka_unit_test(test_an_id_change_is_answered_with_the_old_id),
       cmocka_unit_test(test_reset_is_answered_with_the_old_id_then_factory_settings_apply),
