@@ -156,13 +156,10 @@ static __attribute__((noinline)) void sniff_start(void) {
 static __attribute__((noinline)) void refresh_ping_reply(void) {
   const uint8_t sniff = uart_sniff;
   if (!armed && link_free() && (sniff == 0 || sniff == UART_SNIFF_OFF)) {
-    /* A sniff at byte 0 needs 5 more byte times before it could start this reply. */
+    /* A sniff at byte 0 needs 5 more byte times (800 cycles at 1 Mbps) before it could
+     * start this reply: far more than this rebuild and load take, so no interrupt waits. */
     dxl_servo_ping_reply(&servo, &response);
-    ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
-      if (uart_sniff == 0 || uart_sniff == UART_SNIFF_OFF) {
-        uart_reply_load(response.bytes, DXL_PING_REPLY_BYTES, response.delay_us);
-      }
-    }
+    uart_reply_load(response.bytes, DXL_PING_REPLY_BYTES, response.delay_us);
     sniff_start();
   }
 }

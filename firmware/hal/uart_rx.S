@@ -219,7 +219,8 @@ USART_RX_vect:
   sts _SFR_MEM_ADDR(UDR0), r24       /* the reply starts here */
   push r30
   push r31
-  rjmp .Lsent
+  rcall uart_sending
+  rjmp .Lstore_wake
 
 .Lmismatch:
   push r30
@@ -238,22 +239,7 @@ USART_RX_vect:
   sbiw r30, UART_SPIN_COMPENSATION_TICKS /* Z = the tick at which to leave the spin */
   cpi r24, UART_START_TIMER
   breq .Ltimer
-3:
-  lds r24, _SFR_MEM_ADDR(TCNT1L)     /* 8 cycles a turn = 1 tick */
-  cp r24, r30
-  lds r24, _SFR_MEM_ADDR(TCNT1H)
-  cpc r24, r31
-  brmi 3b                            /* while (int16_t)(TCNT1 - Z) < 0 */
-  sbi _SFR_IO_ADDR(PORTD), UART_BUS_DIR_BIT
-  ldi r24, DXL_HEADER_BYTE_ASM        /* every status packet starts with it */
-  sts _SFR_MEM_ADDR(UDR0), r24       /* the reply starts here */
-.Lsent:
-  ldi r24, UART_UCSR0B_TALK          /* UDRIE after the UDR0 write: see uart.c */
-  sts _SFR_MEM_ADDR(UCSR0B), r24
-  ldi r24, 1
-  sts uart_tx_next, r24
-  ldi r24, UART_REPLY_SENDING
-  sts uart_tx_state, r24
+  rcall uart_spin_and_send
 
 .Lstore_wake:
   sbi _SFR_IO_ADDR(GPIOR0), BOARD_WAKE_BIT /* a byte for the main loop */
@@ -328,21 +314,7 @@ TIMER1_COMPA_vect:
   sbc r25, r31
   adiw r24, UART_COMPA_EARLY_TICKS   /* TCNT1 - (start - early) */
   brmi 2f                            /* stale: the match is still ahead */
-1:
-  lds r24, _SFR_MEM_ADDR(TCNT1L)     /* 8 cycles a turn = 1 tick */
-  cp r24, r30
-  lds r24, _SFR_MEM_ADDR(TCNT1H)
-  cpc r24, r31
-  brmi 1b                            /* while (int16_t)(TCNT1 - start) < 0 */
-  sbi _SFR_IO_ADDR(PORTD), UART_BUS_DIR_BIT
-  ldi r24, DXL_HEADER_BYTE_ASM        /* every status packet starts with it */
-  sts _SFR_MEM_ADDR(UDR0), r24       /* the reply starts here */
-  ldi r24, UART_UCSR0B_TALK
-  sts _SFR_MEM_ADDR(UCSR0B), r24
-  ldi r24, 1
-  sts uart_tx_next, r24
-  ldi r24, UART_REPLY_SENDING
-  sts uart_tx_state, r24
+  rcall uart_spin_and_send
   ldi r24, _BV(OCIE1B)
   sts _SFR_MEM_ADDR(TIMSK1), r24
 2:
@@ -399,3 +371,26 @@ USART_UDRE_vect:
   out _SFR_IO_ADDR(SREG), r24
   pop r24
   reti
+
+/* Shared by USART_RX (Return Delay Time 2-6) and TIMER1_COMPA: spins until TCNT1 reaches Z
+ * (the start tick less UART_SPIN_COMPENSATION_TICKS), drives the bus and writes the reply's
+ * first byte; uart_sending then hands the rest to the UDRE ISR. Interrupts off; clobbers
+ * r24. */
+  .section .text.uart_spin_and_send, "ax", @progbits
+uart_spin_and_send:
+  lds r24, _SFR_MEM_ADDR(TCNT1L)     /* 8 cycles a turn = 1 tick */
+  cp r24, r30
+  lds r24, _SFR_MEM_ADDR(TCNT1H)
+  cpc r24, r31
+  brmi uart_spin_and_send            /* while (int16_t)(TCNT1 - Z) < 0 */
+  sbi _SFR_IO_ADDR(PORTD), UART_BUS_DIR_BIT
+  ldi r24, DXL_HEADER_BYTE_ASM        /* every status packet starts with it */
+  sts _SFR_MEM_ADDR(UDR0), r24       /* the reply starts here */
+uart_sending:
+  ldi r24, UART_UCSR0B_TALK          /* UDRIE after the UDR0 write: see uart.c */
+  sts _SFR_MEM_ADDR(UCSR0B), r24
+  ldi r24, 1
+  sts uart_tx_next, r24
+  ldi r24, UART_REPLY_SENDING
+  sts uart_tx_state, r24
+  ret
