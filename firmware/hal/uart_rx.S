@@ -318,13 +318,7 @@ TIMER1_COMPA_vect:
   ldi r24, _BV(OCIE1B)
   sts _SFR_MEM_ADDR(TIMSK1), r24
 2:
-  pop r31
-  pop r30
-  pop r25
-  pop r24
-  out _SFR_IO_ADDR(SREG), r24
-  pop r24
-  reti
+  rjmp uart_isr_return
 
 /* USART_UDRE: one byte per interrupt from uart_tx_bytes; with the last (uart_tx_length) it
  * hands over to TX-complete, clearing TXC0 first because simavr raises it after every byte
@@ -364,6 +358,7 @@ USART_UDRE_vect:
 1:
   sts _SFR_MEM_ADDR(UCSR0B), r24
 3:
+uart_isr_return:                     /* also TIMER1_COMPA's: the same registers saved */
   pop r31
   pop r30
   pop r25
