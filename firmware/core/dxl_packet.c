@@ -121,9 +121,14 @@ dxl_find_result_t dxl_finder_next(dxl_finder_t *finder, dxl_packet_t *packet) {
     }
     const uint8_t b = f->bytes[f->examined];
     switch (f->examined) {
-    case 0: /* first header byte */
+    case 0: /* first header byte: no packet starts before the next 0xFF, drop up to it at once
+             * (one move for a run of garbage, not one a byte) */
       if (b != DXL_HEADER_BYTE) {
-        drop_front(f, 1);
+        uint16_t garbage = 1;
+        while (garbage < f->fill && f->bytes[garbage] != DXL_HEADER_BYTE) {
+          garbage++;
+        }
+        drop_front(f, garbage);
         continue;
       }
       break;
