@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include "conformance_log.h"
+#include "packet_build.h"
 #include "dxl_protocol.h"
 
 uint8_t ref_checksum(const uint8_t *id_length_body, size_t count) {
@@ -21,16 +22,7 @@ uint8_t ref_checksum(const uint8_t *id_length_body, size_t count) {
 }
 
 size_t build_packet(uint8_t *out, uint8_t id, uint8_t code, const uint8_t *params, size_t count) {
-  out[0] = 0xFF;
-  out[1] = 0xFF;
-  out[2] = id;
-  out[3] = (uint8_t)(count + 2u);
-  out[4] = code;
-  if (count != 0) {
-    memcpy(&out[5], params, count);
-  }
-  out[5 + count] = ref_checksum(&out[2], count + 3u);
-  return count + 6u;
+  return packet_build(out, id, code, params, count);
 }
 
 void given_bus(host_bus_t *bus, uint8_t id) { given_bus_of(bus, &id, 1); }

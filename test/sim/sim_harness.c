@@ -12,6 +12,8 @@
 
 #include <cmocka.h>
 
+#include "packet_build.h"
+
 #ifndef AX12_FIRMWARE_DIR
 #error "AX12_FIRMWARE_DIR must be defined by the build"
 #endif
@@ -95,18 +97,7 @@ void harness_power_cycle(harness_t *h) {
 }
 
 size_t harness_packet(uint8_t *out, uint8_t id, uint8_t instruction, const uint8_t *params, size_t count) {
-  out[0] = 0xFF;
-  out[1] = 0xFF;
-  out[2] = id;
-  out[3] = (uint8_t)(count + 2u);
-  out[4] = instruction;
-  unsigned sum = id + out[3] + instruction;
-  for (size_t i = 0; i < count; i++) {
-    out[5 + i] = params[i];
-    sum += params[i];
-  }
-  out[5 + count] = (uint8_t)(~sum & 0xFFu);
-  return count + 6u;
+  return packet_build(out, id, instruction, params, count);
 }
 
 size_t harness_exchange(harness_t *h, const uint8_t *bytes, size_t count, size_t expect, uint8_t *reply,
