@@ -319,16 +319,22 @@ static void expect_every_servo_answers_ping(harness_t *h) {
   }
 }
 
+/* The bus of 30, its firmware counters, and every servo's counts before the load. */
+static void open_bus_of_30_and_count(harness_t *h, firmware_counters_t *fc, servo_ticks_t before[SERVO_COUNT]) {
+  open_bus_of_30(h);
+  *fc = find_firmware_counters(h->elf);
+  for (size_t i = 0; i < SERVO_COUNT; i++) {
+    before[i] = read_ticks(fc, h->world->servos[i]);
+  }
+  master_rx_clear(h->master);
+}
+
 static void test_30_servos_at_1_mbps_keep_up_with_back_to_back_sync_writes(void **state) {
   (void)state;
   harness_t h;
-  open_bus_of_30(&h);
-  const firmware_counters_t fc = find_firmware_counters(h.elf);
+  firmware_counters_t fc;
   servo_ticks_t before[SERVO_COUNT];
-  for (size_t i = 0; i < SERVO_COUNT; i++) {
-    before[i] = read_ticks(&fc, h.world->servos[i]);
-  }
-  master_rx_clear(h.master);
+  open_bus_of_30_and_count(&h, &fc, before);
 
   const traffic_t t = send_back_to_back(&h, sim_ms(THROUGHPUT_SECONDS * 1000u), false);
 
@@ -361,13 +367,9 @@ static void test_30_servos_at_1_mbps_keep_up_with_back_to_back_sync_writes(void 
 static void test_a_garbage_flood_at_1_mbps_does_not_starve_the_control_tick(void **state) {
   (void)state;
   harness_t h;
-  open_bus_of_30(&h);
-  const firmware_counters_t fc = find_firmware_counters(h.elf);
+  firmware_counters_t fc;
   servo_ticks_t before[SERVO_COUNT];
-  for (size_t i = 0; i < SERVO_COUNT; i++) {
-    before[i] = read_ticks(&fc, h.world->servos[i]);
-  }
-  master_rx_clear(h.master);
+  open_bus_of_30_and_count(&h, &fc, before);
   const traffic_t t = send_back_to_back(&h, sim_ms(GARBAGE_MS), true);
   const load_figures_t figures = measure_load(&h, &fc, before);
   printf("garbage: ");
