@@ -2,7 +2,6 @@
 #include "timebase.h"
 
 #include <avr/io.h>
-#include <util/atomic.h>
 
 volatile uint16_t timebase_ms_count; /* TIMER1_COMPB ISR */
 static uint16_t ms_polled;           /* main loop: the count timebase_poll() last saw */
@@ -16,10 +15,18 @@ void timebase_init(void) {
   TIMSK1 = _BV(OCIE1B);
 }
 
+/* Without disabling interrupts (that would delay the RX interrupt, whose entry times the
+ * replies): TIMER1_COMPB updates both bytes before the main loop runs again, so a high byte
+ * read twice the same brackets a consistent low byte. */
 uint16_t timebase_ms(void) {
-  uint16_t ms;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { ms = timebase_ms_count; }
-  return ms;
+  const volatile uint8_t *const count = (const volatile uint8_t *)&timebase_ms_count;
+  uint8_t high;
+  uint8_t low;
+  do {
+    high = count[1];
+    low = count[0];
+  } while (high != count[1]);
+  return (uint16_t)(((uint16_t)high << 8) | low);
 }
 
 uint8_t timebase_poll(void) {
@@ -29,4 +36,3 @@ uint8_t timebase_poll(void) {
   return elapsed > UINT8_MAX ? UINT8_MAX : (uint8_t)elapsed;
 }
 
-bool timebase_tick_due(void) { return timebase_ms_count != ms_polled; }

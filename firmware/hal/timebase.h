@@ -18,21 +18,17 @@
 
 #include <stdbool.h>
 #include <stdint.h>
-#include <util/atomic.h>
 
 void timebase_init(void);
 
 /* Milliseconds since power-up, wrapping at 2^16 (TIMER1_COMPB writes it). */
 extern volatile uint16_t timebase_ms_count;
 
+/* The millisecond count, read without disabling interrupts. Main loop. */
 uint16_t timebase_ms(void);
 
 /* Control periods elapsed since the last call (0 if none; saturates at 255). Main loop. */
 uint8_t timebase_poll(void);
-
-/* True when a control period has elapsed that timebase_poll() has not reported yet. Main
- * loop, interrupts disabled (the sleep test). */
-bool timebase_tick_due(void);
 
 #endif /* __ASSEMBLER__ */
 #endif
