@@ -40,14 +40,6 @@ static const DXL_FLASH uint8_t item_index_by_addr[CT_SIZE] = {
 
 uint8_t ct_item_index_at(uint8_t addr) { return item_index_by_addr[addr]; }
 
-uint16_t ct_get_u16(const uint8_t *table, uint8_t addr) {
-  return (uint16_t)(table[addr] | ((uint16_t)table[addr + 1] << 8));
-}
-
-void ct_set_u16(uint8_t *table, uint8_t addr, uint16_t value) {
-  table[addr] = (uint8_t)(value & 0xFFu);
-  table[addr + 1] = (uint8_t)(value >> 8);
-}
 
 static void load_defaults(uint8_t *table, uint8_t first_addr, uint8_t end_addr, bool read_only_only) {
   for (uint8_t i = 0; i < CT_ITEM_COUNT; i++) {

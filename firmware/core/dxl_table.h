@@ -49,8 +49,15 @@ extern const DXL_FLASH ct_desc_t ct_items[CT_ITEM_COUNT];
 /* Index into ct_items[] of the item that contains address addr (addr < CT_SIZE). */
 uint8_t ct_item_index_at(uint8_t addr);
 
-uint16_t ct_get_u16(const uint8_t *table, uint8_t addr);
-void ct_set_u16(uint8_t *table, uint8_t addr, uint16_t value);
+/* 16-bit items, low byte first. Inlined everywhere (a call costs more than the access). */
+static inline __attribute__((always_inline)) uint16_t ct_get_u16(const uint8_t *table, uint8_t addr) {
+  return (uint16_t)(table[addr] | ((uint16_t)table[addr + 1] << 8));
+}
+
+static inline __attribute__((always_inline)) void ct_set_u16(uint8_t *table, uint8_t addr, uint16_t value) {
+  table[addr] = (uint8_t)(value & 0xFFu);
+  table[addr + 1] = (uint8_t)(value >> 8);
+}
 
 /* Factory defaults of the EEPROM area (0..23). */
 void ct_load_factory_eeprom(uint8_t *table);
