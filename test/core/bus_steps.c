@@ -43,16 +43,7 @@ void when_master_sends_bytes(host_bus_t *bus, const uint8_t *bytes, size_t count
 }
 
 const char *hex_of(const uint8_t *bytes, size_t count, char *text, size_t text_len) {
-  size_t used = 0;
-  text[0] = '\0';
-  if (count == 0) {
-    snprintf(text, text_len, "(none)");
-    return text;
-  }
-  for (size_t i = 0; i < count && used + 4 < text_len; i++) {
-    used += (size_t)snprintf(text + used, text_len - used, i == 0 ? "%02X" : " %02X", bytes[i]);
-  }
-  return text;
+  return packet_hex(bytes, count, text, text_len);
 }
 
 void then_heard_bytes(const host_bus_t *bus, const uint8_t *bytes, size_t count) {

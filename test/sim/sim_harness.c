@@ -137,16 +137,7 @@ size_t harness_request(harness_t *h, uint8_t id, uint8_t instruction, const uint
 }
 
 const char *harness_hex(const uint8_t *bytes, size_t count, char *text, size_t text_len) {
-  size_t used = 0;
-  text[0] = '\0';
-  if (count == 0) {
-    snprintf(text, text_len, "(none)");
-    return text;
-  }
-  for (size_t i = 0; i < count && used + 4 < text_len; i++) {
-    used += (size_t)snprintf(text + used, text_len - used, i == 0 ? "%02X" : " %02X", bytes[i]);
-  }
-  return text;
+  return packet_hex(bytes, count, text, text_len);
 }
 
 void harness_tempdir(char *out, size_t len) {

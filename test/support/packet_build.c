@@ -1,5 +1,7 @@
 #include "packet_build.h"
 
+#include <stdio.h>
+
 size_t packet_build(uint8_t *out, uint8_t id, uint8_t instruction, const uint8_t *params, size_t count) {
   out[0] = 0xFF;
   out[1] = 0xFF;
@@ -13,4 +15,17 @@ size_t packet_build(uint8_t *out, uint8_t id, uint8_t instruction, const uint8_t
   }
   out[5 + count] = (uint8_t)(~sum & 0xFFu);
   return count + 6u;
+}
+
+const char *packet_hex(const uint8_t *bytes, size_t count, char *text, size_t text_len) {
+  size_t used = 0;
+  text[0] = '\0';
+  if (count == 0) {
+    snprintf(text, text_len, "(none)");
+    return text;
+  }
+  for (size_t i = 0; i < count && used + 4 < text_len; i++) {
+    used += (size_t)snprintf(text + used, text_len - used, i == 0 ? "%02X" : " %02X", bytes[i]);
+  }
+  return text;
 }

@@ -11,4 +11,8 @@
  * count is 0. */
 size_t packet_build(uint8_t *out, uint8_t id, uint8_t instruction, const uint8_t *params, size_t count);
 
+/* Bytes as hex for failure messages ("FF FF 01 ..." or "(none)"), cut to fit text_len;
+ * returns text. */
+const char *packet_hex(const uint8_t *bytes, size_t count, char *text, size_t text_len);
+
 #endif
