@@ -54,10 +54,9 @@ static dxl_servo_t servo;
 static dxl_response_t response;
 
 /* Link state of the main loop; uart_reply_state() is the UART's. */
-static bool armed;               /* the sniff armed the reply of the packet whose checksum
-                                    byte is armed_to_come bytes ahead; the UART may already
+static bool armed;               /* the sniff armed the reply of the packet that ends just
+                                    before uart_sniff_end in the ring; the UART may already
                                     have started it */
-static uint8_t armed_to_come;    /* bytes still to pop, the checksum included */
 static bool finder_dirty;        /* bytes pushed or a result taken since dxl_finder_next() last
                                     said DXL_FIND_NONE */
 static bool reply_waits_for_nvm; /* response is loaded; send it once the image is written */
@@ -110,9 +109,11 @@ static void send_response(void) {
   }
 }
 
-/* The armed packet's prepared response is to be committed when its checksum matches (a
- * PING's ready reply needs nothing). */
-static bool stream_commits;
+/* Whether the armed packet's reply is the streamed one the main loop prepares and commits
+ * (else a PING answered with the ready reply, which needs nothing). */
+static bool reply_is_streamed(const dxl_packet_t *packet) {
+  return packet->instruction != DXL_INST_PING || packet->param_count != 0;
+}
 
 static void on_packet(const dxl_packet_t *packet) {
   dxl_servo_prepare(&servo, packet, &response);
@@ -179,9 +180,11 @@ static void adopt_sniffed(void) {
   if (!armed && uart_sniff == UART_SNIFF_ARMED) {
     uart_sniff = UART_SNIFF_OFF;
     armed = true;
-    armed_to_come = (uint8_t)(uart_sniff_end - uart_rx_tail);
   }
 }
+
+/* Bytes of the armed packet still in the ring or on the wire, its checksum included. */
+static uint8_t armed_bytes_left(void) { return (uint8_t)(uart_sniff_end - uart_rx_tail); }
 
 static bool link_free(void) { return uart_reply_state() == UART_REPLY_IDLE && !reply_waits_for_nvm; }
 
@@ -224,17 +227,15 @@ static void service_rx(void) {
        * reply; anything else streamed its header and waits for the rest, published here
        * (dxl_servo.h "Streamed replies": the prepared reply of such a packet is non-empty
        * with nothing after it). */
-      if (armed_to_come > 1) {
-        const uint8_t moved = push_waiting_bytes((uint8_t)(armed_to_come - 1u));
-        if (moved == 0) {
+      const uint8_t left = armed_bytes_left();
+      if (left > 1) {
+        if (push_waiting_bytes((uint8_t)(left - 1u)) == 0) {
           return;
         }
-        armed_to_come = (uint8_t)(armed_to_come - moved);
         (void)dxl_finder_next(&finder, &packet); /* the same candidate as the sniff: NONE */
-        if (armed_to_come == 1) {
+        if (armed_bytes_left() == 1) {
           dxl_finder_candidate(&finder, &packet);
-          stream_commits = packet.instruction != DXL_INST_PING || packet.param_count != 0;
-          if (stream_commits) {
+          if (reply_is_streamed(&packet)) {
             dxl_servo_prepare(&servo, &packet, &response);
             uart_reply_publish(response.length);
           }
@@ -250,13 +251,13 @@ static void service_rx(void) {
         /* The checksum matched and the reply is under way: the finder completes the same
          * packet (DXL_FIND_PACKET); commit what was prepared. */
         (void)dxl_finder_next(&finder, &packet);
-        if (stream_commits) {
+        if (reply_is_streamed(&packet)) {
           dxl_servo_commit(&servo, &response);
         }
         after_reply = 0;
         finder_dirty = false;
-      } else if (stream_commits) {
-        refresh_ping_reply(); /* nothing was sent, but the prepared reply took the buffer */
+      } else {
+        refresh_ping_reply(); /* nothing was sent; a prepared reply may have taken the buffer */
       }
       continue; /* a mismatch is handled below like any byte */
     }
