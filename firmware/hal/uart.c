@@ -55,8 +55,6 @@ volatile uint8_t uart_sniff_sum;
 volatile uint8_t uart_sniff_count;
 volatile uint8_t uart_sniff_end;
 volatile uint8_t uart_sniff_skip;         /* RX ISR: the packet being framed is another servo's */
-volatile uint8_t uart_sniff_packet_start; /* ring position of the framed packet's first byte:
-                                             the head when the sniff waits for a packet */
 const uint8_t *volatile uart_tx_bytes; /* the loaded reply (UDRE ISR reads) */
 volatile uint8_t uart_tx_length;
 
@@ -168,7 +166,6 @@ void uart_sniff_start(uint8_t id, uint8_t mask) {
     if (uart_tx_state == UART_REPLY_IDLE && uart_rx_head == uart_rx_tail) {
       uart_sniff_id = id;
       uart_sniff_mask = mask;
-      uart_sniff_packet_start = uart_rx_head; /* and again after each dropped packet */
       uart_sniff = 0;
     }
   }

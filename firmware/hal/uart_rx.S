@@ -154,18 +154,16 @@
   ldi r24, UART_SNIFF_ARMED
   rjmp .Lsniff_wake
 
-/* The checksum of another servo's packet: when it is good, the whole packet (still all in
- * the ring: the main loop leaves the ring alone while the sniff runs) is dropped by moving
- * the head back, and the sniff waits for the next packet; the main loop is not woken. */
+/* The checksum of another servo's packet: when it is good, the whole packet is dropped by
+ * moving the head back to the tail (the sniff starts with an empty ring, the main loop leaves
+ * the ring alone while it runs, and each dropped packet empties it again, so the ring holds
+ * exactly this packet), and the sniff waits for the next one; the main loop is not woken. */
 .Lsn_skip_checksum:
   lds r30, uart_sniff_sum
   add r30, r25
   cpi r30, 0xFF
   brne 3f
-  lds r30, uart_sniff_packet_start
-  lds r31, uart_rx_tail
-  cp r30, r31
-  brne 3f
+  lds r30, uart_rx_tail              /* the ring holds this packet and nothing else */
   sts uart_rx_head, r30
   ldi r24, 0
   sts uart_sniff, r24
