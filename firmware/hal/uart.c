@@ -73,21 +73,12 @@ void uart_init(uint8_t baud_register) {
   UCSR0B = UART_UCSR0B_LISTEN;
 }
 
-/* Drives the bus and writes the first byte: the reply starts at the UDR0 write. UDRIE0 is
- * enabled after that write (simavr raises UDRE at once if it is enabled while no byte is in
- * flight, which would send the second byte without waiting). Interrupts off. */
-static inline __attribute__((always_inline)) void reply_send_first(void) {
-  PORTD |= _BV(UART_BUS_DIR_BIT);
-  UDR0 = DXL_HEADER_BYTE; /* every status packet starts with it */
-  UCSR0B = UART_UCSR0B_TALK;
-  uart_tx_next = 1;
-  uart_tx_state = UART_REPLY_SENDING;
-}
-
-static inline __attribute__((always_inline)) void spin_until(uint16_t tick) {
-  while ((int16_t)(TCNT1 - tick) < 0) {
-  }
-}
+/* uart_rx.S, shared with the RX ISR and TIMER1_COMPA; interrupts off. uart_send_first:
+ * drives the bus, writes the first byte (every status packet starts with 0xFF) and hands the
+ * rest to the UDRE ISR. uart_start_at: the same once TCNT1 has reached tick (at once if it
+ * has passed). */
+void uart_send_first(void);
+void uart_start_at(uint16_t tick);
 
 /* Starts the loaded reply relative to rx_tick, the TCNT1 value the RX ISR read for the
  * packet's last byte, from the main loop: the moment may be close or already past.
@@ -102,8 +93,7 @@ static void reply_start_late(uint16_t rx_tick) {
     uart_tx_state = UART_REPLY_WAITING;
     return;
   }
-  spin_until(start); /* at most UART_COMPA_EARLY_TICKS + LATE_MIN_LEAD_TICKS ahead, or past */
-  reply_send_first();
+  uart_start_at(start); /* at most UART_COMPA_EARLY_TICKS + LATE_MIN_LEAD_TICKS ahead, or past */
 }
 
 /* The last stop bit has left: release the bus, listen again. */
@@ -148,7 +138,7 @@ void uart_reply_start(void) {
 }
 
 void uart_reply_start_now(void) {
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { reply_send_first(); }
+  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { uart_send_first(); }
 }
 
 void uart_reply_publish(uint8_t length) {

@@ -365,22 +365,30 @@ uart_isr_return:                     /* also TIMER1_COMPA's: the same registers 
   pop r24
   reti
 
-/* Shared by USART_RX (Return Delay Time 2-6) and TIMER1_COMPA: spins until TCNT1 reaches Z
- * (the start tick less UART_SPIN_COMPENSATION_TICKS), drives the bus and writes the reply's
- * first byte; uart_sending then hands the rest to the UDRE ISR. Interrupts off; clobbers
- * r24. */
+/* Shared by USART_RX (Return Delay Time 2-6), TIMER1_COMPA and the main loop's late start
+ * (uart.c): spins until TCNT1 reaches Z (the start tick less UART_SPIN_COMPENSATION_TICKS),
+ * drives the bus and writes the reply's first byte; uart_sending then hands the rest to the
+ * UDRE ISR. Interrupts off; clobbers r24. C entries (call-clobbered registers only):
+ * uart_start_at(tick) = the spin from Z = tick, uart_send_first() = no spin. */
   .section .text.uart_spin_and_send, "ax", @progbits
+  .global uart_start_at
+uart_start_at:
+  movw r30, r24
 uart_spin_and_send:
   lds r24, _SFR_MEM_ADDR(TCNT1L)     /* 8 cycles a turn = 1 tick */
   cp r24, r30
   lds r24, _SFR_MEM_ADDR(TCNT1H)
   cpc r24, r31
   brmi uart_spin_and_send            /* while (int16_t)(TCNT1 - Z) < 0 */
+  .global uart_send_first
+uart_send_first:
   sbi _SFR_IO_ADDR(PORTD), UART_BUS_DIR_BIT
   ldi r24, DXL_HEADER_BYTE_ASM        /* every status packet starts with it */
   sts _SFR_MEM_ADDR(UDR0), r24       /* the reply starts here */
 uart_sending:
-  ldi r24, UART_UCSR0B_TALK          /* UDRIE after the UDR0 write: see uart.c */
+  ldi r24, UART_UCSR0B_TALK          /* UDRIE only after the UDR0 write: simavr raises UDRE at
+                                        once if enabled with no byte in flight, which would
+                                        send the second byte without waiting */
   sts _SFR_MEM_ADDR(UCSR0B), r24
   ldi r24, 1
   sts uart_tx_next, r24
