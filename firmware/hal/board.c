@@ -30,12 +30,20 @@ void board_watchdog_start(void) { wdt_enable(WDTO_250MS); }
 void board_watchdog_kick(void) { wdt_reset(); }
 
 void board_sleep_unless_woken(void) {
+  sleep_enable();
   cli();
-  if (!(GPIOR0 & _BV(BOARD_WAKE_BIT))) {
-    sleep_enable();
+  while (!(GPIOR0 & _BV(BOARD_WAKE_BIT))) {
     sei();
     sleep_cpu();
-    sleep_disable();
+    /* simavr 1.6 runs two instructions after SEI before a pending interrupt (silicon: one),
+     * and SLEEP with one pending does not sleep: without this NOP the CLI below could come
+     * first, and the loop would spin with the interrupt never taken. */
+    __asm__ __volatile__("nop");
+    if (GPIOR0 & _BV(BOARD_WAKE_BIT)) {
+      break; /* work: back with interrupts on, so the next byte's interrupt is not delayed */
+    }
+    cli(); /* an ISR that left no work (a byte the sniff framed): sleep on */
   }
   sei();
+  sleep_disable();
 }
