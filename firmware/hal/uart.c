@@ -18,7 +18,7 @@ _Static_assert(DXL_HEADER_BYTE_ASM == DXL_HEADER_BYTE && DXL_INST_PING_ASM == DX
                    UART_SNIFF_WRITE_MIN_ADDR == DXL_STREAM_WRITE_MIN_ADDR &&
                    UART_STREAM_HEADER_BYTES == DXL_STREAM_HEADER_BYTES,
                "uart.h's assembler copies of the protocol values");
-#if UART_COMPA_EARLY_TICKS > 63 || UART_SPIN_COMPENSATION_TICKS > 63
+#if UART_COMPA_EARLY_TICKS > 63 || UART_SPIN_COMPENSATION_TICKS + UART_ARMED_READ_LATE_TICKS > 63
 #error "compensation must fit SBIW in uart_rx.S"
 #endif
 
@@ -54,7 +54,7 @@ volatile uint8_t uart_sniff_instruction;
 volatile uint8_t uart_sniff_sum;
 volatile uint8_t uart_sniff_count;
 volatile uint8_t uart_sniff_end;
-volatile uint8_t uart_sniff_skip;         /* RX ISR: the packet being framed is another servo's */
+volatile uint8_t uart_sniff_fate;         /* RX ISR: UART_FATE_* of the packet being framed */
 const uint8_t *volatile uart_tx_bytes; /* the loaded reply (UDRE ISR reads) */
 volatile uint8_t uart_tx_length;
 

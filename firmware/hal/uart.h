@@ -58,11 +58,22 @@
 #define UART_SNIFF_INSTRUCTION 4
 #define UART_SNIFF_FIRST_PARAM 5
 #define UART_SNIFF_BODY 6
-#define UART_SNIFF_SKIP_CHECKSUM 7 /* another servo's packet: its checksum is next */
+#define UART_SNIFF_CHECKSUM 7 /* a packet framed, not armed: its checksum is next */
 #define UART_SNIFF_ARMED 8
 #define UART_SNIFF_OFF 0xFF
-/* While the sniff runs, at most this many bytes wait in the ring; one more ends it. */
-#define UART_SNIFF_MAX_HELD 96
+/* What the sniff does with the packet it frames, decided at its ID and instruction
+ * (uart_sniff_fate): arm its reply, drop it (another servo's, checksum good), or hand it to
+ * the finder whole at its checksum (broadcast, or this servo's and not armed). */
+#define UART_FATE_ARM 0
+#define UART_FATE_DROP 1
+#define UART_FATE_HAND_OVER 2
+/* Bytes the sniff holds, bounded without a per-byte test: a header of at most
+ * UART_SNIFF_MAX_HEADER_HELD bytes (FF ... FF ID), then LENGTH + 1 bytes with LENGTH at most
+ * UART_SNIFF_MAX_LENGTH (a SYNC_WRITE of 2 bytes to 30 servos is 94). The rest of the ring
+ * is the main loop's margin once a sniff ends part-way (24 bytes: 240 us at 1 Mbps). */
+#define UART_SNIFF_MAX_HEADER_HELD 7
+#define UART_SNIFF_MAX_LENGTH 96
+#define UART_SNIFF_MAX_HELD (UART_SNIFF_MAX_HEADER_HELD + 1 + UART_SNIFF_MAX_LENGTH)
 /* Protocol values the assembly needs (dxl_protocol.h / dxl_servo.h spell them with a u
  * suffix the assembler does not take; uart.c checks they agree). */
 #define DXL_HEADER_BYTE_ASM 0xFF
@@ -85,16 +96,19 @@
 
 /* Reply timing, in Timer1 ticks (8 cycles). Every delayed start ends in a spin on TCNT1
  * that leaves at start = rx tick + delay - UART_SPIN_COMPENSATION_TICKS, calibrated in
- * simavr so the UDR0 write lands within -1..+7 cycles of the target (docs/firmware.md
- * "Reply timing"): it covers the RX ISR reading TCNT1 7 cycles after its interrupt and the
- * UDR0 write 9 cycles after the spin sees its tick. TIMER1_COMPA is set
- * UART_COMPA_EARLY_TICKS before start, so its entry and a TIMER1_COMPB ISR (45 cycles) just
- * before it do not delay the reply. */
+ * simavr so the UDR0 write lands within 0..+10 cycles of the target (docs/firmware.md
+ * "Reply timing"): it covers a TCNT1 read 6 cycles after the RX vector is entered (the
+ * reference every path's tick is normalised to, uart_rx.S) and the UDR0 write 9 cycles after
+ * the spin sees its tick. TIMER1_COMPA is set UART_COMPA_EARLY_TICKS before start, so its
+ * entry and a TIMER1_COMPB ISR (45 cycles) just before it do not delay the reply. */
 #define UART_SPIN_COMPENSATION_TICKS 2
+/* The armed path reads TCNT1 27 cycles after that reference (it tests the armed state and
+ * the checksum first, for the Return Delay Time 0 latency): 3 ticks, 3 cycles left over. */
+#define UART_ARMED_READ_LATE_TICKS 3
 #define UART_COMPA_EARLY_TICKS 12
-/* Up to this delay the NOW path's own latency (UDR0 written 47 cycles after the RX interrupt
- * in simavr, 52 on silicon) is nearer the target than a spin would be (about 63 at the
- * earliest): Return Delay Time 1 (32 cycles) starts as NOW. */
+/* Up to this delay the NOW path's own latency (UDR0 written 31 cycles after the RX vector is
+ * entered; silicon adds its 4-cycle interrupt response) is nearer the target than a spin:
+ * Return Delay Time 1 (32 cycles) starts as NOW. */
 #define UART_NOW_MAX_DELAY_TICKS 7
 
 #ifndef __ASSEMBLER__

@@ -1,102 +1,157 @@
-/* USART_RX ISR (see uart.h). Assembly because it is on the measured reply path: every cycle
- * before the UDR0 write adds to the reply latency at Return Delay Time 0, and its entry point
- * must be fixed so the tick it records can be compensated (UART_RX_READ_CYCLES).
+/* USART_RX ISR (see uart.h). Assembly because it runs for every byte on the bus (at 1 Mbps
+ * one every 160 cycles, heard by every servo) and is on the measured reply path: every cycle
+ * before the UDR0 write adds to the reply latency at Return Delay Time 0.
  *
- * Every byte: record TCNT1 (uart_rx_tick), count a frame error / data overrun flagged for it,
- * append it to the ring (or count it dropped when the ring is full).
- * When a reply is ARMED (by the sniff below), this byte is the checksum of its packet:
- *   differs  -> IDLE (the main loop handles the packet as usual: Checksum Error etc.);
- *   matches  -> start the reply, by uart_tx_mode:
- *     NOW    write the first byte at once (set PD2, UDR0, receiver off, UDRE interrupt on);
- *     SPIN   busy-wait until TCNT1 reaches start = tick + delay - UART_SPIN_COMPENSATION_TICKS,
- *            then as NOW (Return Delay Time 2..6: at most about 130 cycles of spinning);
- *     TIMER  uart_tx_start_tick = start, OCR1A = start - UART_COMPA_EARLY_TICKS;
- *            TIMER1_COMPA spins from there to start, then as NOW.
+ * Every byte, by state:
+ * - ARMED (tested first: the timed path): this byte is the checksum of the packet whose reply
+ *   is armed (by the sniff below):
+ *     differs -> IDLE (the main loop handles the packet as usual: Checksum Error etc.);
+ *     matches -> start the reply, by uart_tx_mode:
+ *       NOW    write the first byte at once (set PD2, UDR0, receiver off, UDRE interrupt on);
+ *       SPIN   busy-wait until TCNT1 reaches start = tick + delay - UART_SPIN_COMPENSATION_TICKS,
+ *              then as NOW (Return Delay Time 2..6: at most about 130 cycles of spinning);
+ *       TIMER  uart_tx_start_tick = start, OCR1A = start - UART_COMPA_EARLY_TICKS;
+ *              TIMER1_COMPA spins from there to start, then as NOW.
+ * - the sniff (uart_sniff 0..UART_SNIFF_CHECKSUM, started by the main loop with the ring and
+ *   the finder empty): frames and sums FF FF ID LENGTH INSTRUCTION PARAMS CHECKSUM as they
+ *   arrive and holds them in the ring without waking the main loop. Its fate, decided at the
+ *   ID and the instruction (UART_FATE_*):
+ *     ARM        this servo's, instruction in uart_sniff_mask (and a WRITE's start address
+ *                past the EEPROM area): at the last byte before the checksum the reply is
+ *                ARMED as above, so neither the main loop's latency nor its long passes (the
+ *                control tick) delay it. A PING (LENGTH 2) starts the loaded ready reply; any
+ *                other packet streams the loaded reply's header FF FF ID, and the UDRE ISR
+ *                waits for the main loop to publish the rest;
+ *     DROP       another servo's: with a good checksum the ring is emptied again (the finder
+ *                would frame it and do nothing) and the sniff waits for the next packet;
+ *     HAND_OVER  broadcast, or this servo's and not armed: at its checksum the sniff ends
+ *                and the main loop takes the whole packet in one pass.
+ *   Any byte that is no packet (a bad header, LENGTH out of range, a bad checksum) ends the
+ *   sniff (UART_SNIFF_OFF).
+ * - OFF (the finder's): append to the ring (or count it dropped when full), note the tick,
+ *   wake the main loop.
+ * A frame error / data overrun flagged for the byte is counted in every state.
  *
- * The sniff (uart_sniff 0..UART_SNIFF_BODY, set up by the main loop with the ring and the
- * finder empty): the bytes FF FF ID LENGTH INSTRUCTION PARAMS of a packet to this servo
- * whose instruction is in uart_sniff_mask (and, for a WRITE, whose start address is past the
- * EEPROM area) are framed and summed as they arrive; at the last byte before the checksum
- * the reply is ARMED as above, so neither the main loop's latency nor its long passes (the
- * control tick) delay it. A PING (LENGTH 2) starts the loaded ready reply; any other packet
- * streams the loaded reply's header FF FF ID, and the UDRE ISR waits for the main loop to
- * publish the rest. Any other byte ends the sniff (UART_SNIFF_OFF).
- *
- * Registers: r18:r19 tick, r24 scratch, r25 the byte, Z. r1 is not assumed to be 0.
- * The armed state is tested first and Z is saved only after the UDR0 write on the NOW path,
- * which is the Return Delay Time 0-1 latency. Cycle counts: docs/firmware.md.
+ * The tick (uart_rx_tick, for the main loop's late replies) is TCNT1 normalised to one
+ * reference moment after the interrupt (uart.h): each path reads TCNT1 where it needs it and
+ * subtracts the whole ticks it reads late (*_READ_LATE_TICKS), so a byte the sniff holds
+ * costs neither the read nor its registers. Registers: r24 scratch / the sniff's
+ * state, r25 the byte, Z. r1 is not assumed to be 0. Cycle counts: docs/firmware.md.
  */
 #include <avr/io.h>
 #include "board.h"
 #include "uart.h"
 
+/* Whole Timer1 ticks (8 cycles) by which each path reads TCNT1 after the reference moment
+ * (uart.h: 6 cycles after the vector is entered), counted from the code below and rounded
+ * down, so a late reply is never early: the finder's byte 23 cycles, an armed checksum that
+ * differs 29, the byte that ends the sniff (from its checksum state) 51. */
+#define OFF_READ_LATE_TICKS 2
+#define MISMATCH_READ_LATE_TICKS 3
+#define HAND_OVER_READ_LATE_TICKS 6
+
   .section .text.uart_rx_isr, "ax", @progbits
 /* (Placed before the vector for the branch range.) The sniff: r24 = uart_sniff (its state
- * before this byte, 0..UART_SNIFF_BODY), r25 = the byte. Each state either moves on, or ends
- * the sniff (UART_SNIFF_OFF: the finder handles the packet, the late path answers it). */
-.Lsniff:
-  lds r30, uart_rx_head              /* held bytes: past UART_SNIFF_MAX_HELD the finder takes over */
-  lds r31, uart_rx_tail
-  sub r30, r31
-  cpi r30, UART_SNIFF_MAX_HELD
-  brsh .Lsniff_off
-  cpi r24, UART_SNIFF_ID
-  brlo .Lsn_header                   /* 0, 1: FF FF */
-  breq .Lsn_id
-  cpi r24, UART_SNIFF_INSTRUCTION
-  brlo .Lsn_length
-  breq .Lsn_instruction
-  cpi r24, UART_SNIFF_SKIP_CHECKSUM
-  breq 9f
-  rjmp .Lsn_param
-9:
-  rjmp .Lsn_skip_checksum
+ * before this byte, 0..UART_SNIFF_CHECKSUM), r25 = the byte; Z saved. Each state either
+ * moves on (and holds the byte), or ends the sniff. */
+/* The checksum of a packet framed and not armed. Another servo's with a good checksum is
+ * dropped by moving the head back to the tail (the sniff starts with an empty ring, the main
+ * loop leaves the ring alone while it runs, and each dropped packet empties it again, so the
+ * ring holds exactly this packet); the main loop is not woken. Anything else ends the sniff. */
+.Lsn_checksum:
+  lds r30, uart_sniff_sum
+  add r30, r25
+  cpi r30, 0xFF
+  brne .Lsniff_off
+  lds r30, uart_sniff_fate
+  cpi r30, UART_FATE_DROP
+  brne .Lsniff_off
+  lds r30, uart_rx_tail              /* the ring holds this packet and nothing else */
+  sts uart_rx_head, r30
+  ldi r24, 0
+  sts uart_sniff, r24
+  rjmp .Lexit
+.Lsniff_off:                         /* the held bytes and this one are the finder's */
+  ldi r24, UART_SNIFF_OFF
+  sts uart_sniff, r24
+  ldi r24, HAND_OVER_READ_LATE_TICKS
+  rjmp .Lstamp
+
 .Lsn_header:
   cpi r25, DXL_HEADER_BYTE_ASM
   brne .Lsniff_off
-  inc r24
-  rjmp .Lsniff_next
+  rjmp .Lsn_next
 .Lsn_id:
-  cpi r25, DXL_HEADER_BYTE_ASM       /* a further FF: still the header */
-  breq .Lsn_keep
-  cpi r25, DXL_ID_BROADCAST_ASM      /* acted on by every servo: the finder's */
-  breq .Lsniff_off
-  ldi r30, 0
+  cpi r25, DXL_HEADER_BYTE_ASM       /* a further FF: still the header, held up to a bound */
+  breq .Lsn_extra_ff
+  ldi r30, UART_FATE_HAND_OVER       /* broadcast: acted on by every servo, the finder's */
+  cpi r25, DXL_ID_BROADCAST_ASM
+  breq 1f
+  ldi r30, UART_FATE_ARM
   lds r31, uart_sniff_id
   cpse r25, r31
-  ldi r30, 1                         /* another servo's: framed, then dropped */
-  sts uart_sniff_skip, r30
+  ldi r30, UART_FATE_DROP            /* another servo's */
+1:
+  sts uart_sniff_fate, r30
   sts uart_sniff_sum, r25
-  inc r24
-  rjmp .Lsniff_next
+  rjmp .Lsn_next
+.Lsn_extra_ff:
+  lds r30, uart_rx_head
+  lds r31, uart_rx_tail
+  sub r30, r31
+  cpi r30, UART_SNIFF_MAX_HEADER_HELD
+  brlo .Lsn_hold
+  rjmp .Lsniff_off
+
 .Lsn_length:
   cpi r25, 2                         /* LENGTH < 2 is no packet */
   brlo .Lsniff_off
+  cpi r25, UART_SNIFF_MAX_LENGTH + 1 /* longer: the finder's, so the ring cannot fill */
+  brsh .Lsniff_off
   lds r30, uart_sniff_sum
   add r30, r25
   sts uart_sniff_sum, r30
   mov r30, r25                       /* bytes before the checksum: instruction + parameters */
   dec r30
   sts uart_sniff_count, r30
+  rjmp .Lsn_next
+
+.Lsniff:
+  cpi r24, UART_SNIFF_BODY           /* the most frequent first */
+  breq .Lsn_body
+  cpi r24, UART_SNIFF_ID
+  brlo .Lsn_header                   /* 0, 1: FF FF */
+  breq .Lsn_id
+  cpi r24, UART_SNIFF_INSTRUCTION
+  brlo .Lsn_length
+  breq .Lsn_instruction
+  cpi r24, UART_SNIFF_FIRST_PARAM
+  breq .Lsn_first_param
+  rjmp .Lsn_checksum
+.Lsn_next:
   inc r24
-  rjmp .Lsniff_next
-.Lsniff_off:
-  ldi r24, UART_SNIFF_OFF
-.Lsniff_wake:
-  sbi _SFR_IO_ADDR(GPIOR0), BOARD_WAKE_BIT /* the main loop takes the held bytes */
-.Lsniff_next:
+.Lsn_set:
   sts uart_sniff, r24
-.Lsn_keep:
-  rjmp .Lstore
+.Lsn_hold:                           /* held: the LENGTH bound keeps the ring from filling */
+  lds r24, uart_rx_head
+  mov r30, r24
+  andi r30, UART_RX_RING_MASK
+  ldi r31, 0
+  subi r30, lo8(-(uart_rx_ring))
+  sbci r31, hi8(-(uart_rx_ring))
+  st Z, r25
+  inc r24
+  sts uart_rx_head, r24
+  rjmp .Lexit
 
 .Lsn_instruction:
   ldi r24, UART_SNIFF_BODY
-  lds r30, uart_sniff_skip
-  tst r30
-  brne .Lsn_sum
-  cpi r25, 8                         /* bit r25 of uart_sniff_mask */
-  brsh .Lsniff_off
+  lds r30, uart_sniff_fate
+  cpi r30, UART_FATE_ARM
+  brne .Lsn_sum                      /* framed only */
   sts uart_sniff_instruction, r25
+  cpi r25, 8                         /* bit r25 of uart_sniff_mask */
+  brsh .Lsn_hand_over
   lds r30, uart_sniff_mask
   mov r31, r25
 7:
@@ -105,18 +160,20 @@
   lsr r30
   rjmp 7b
 8:
-  sbrs r30, 0
-  rjmp .Lsniff_off
   ldi r24, UART_SNIFF_FIRST_PARAM
+  sbrc r30, 0
   rjmp .Lsn_sum
-.Lsn_param:
-  cpi r24, UART_SNIFF_FIRST_PARAM
-  brne .Lsn_body
-  lds r30, uart_sniff_instruction    /* a WRITE's start address: EEPROM area -> not streamed */
+.Lsn_hand_over:                      /* this servo's, not armed: the finder's at its end */
+  ldi r30, UART_FATE_HAND_OVER
+  sts uart_sniff_fate, r30
+  ldi r24, UART_SNIFF_BODY
+  rjmp .Lsn_sum
+.Lsn_first_param:
+  lds r30, uart_sniff_instruction    /* a WRITE's start address: EEPROM area -> not armed */
   cpi r30, DXL_INST_WRITE_ASM
   brne .Lsn_body
   cpi r25, UART_SNIFF_WRITE_MIN_ADDR
-  brlo .Lsniff_off
+  brlo .Lsn_hand_over
 .Lsn_body:
   ldi r24, UART_SNIFF_BODY
 .Lsn_sum:                            /* r24 = the next state: sum the byte, count it down */
@@ -126,11 +183,11 @@
   lds r31, uart_sniff_count
   dec r31
   sts uart_sniff_count, r31
-  brne .Lsniff_next
-  ldi r24, UART_SNIFF_SKIP_CHECKSUM  /* only the checksum is to come */
-  lds r31, uart_sniff_skip
-  tst r31
-  brne .Lsniff_next
+  brne .Lsn_set
+  ldi r24, UART_SNIFF_CHECKSUM       /* only the checksum is to come */
+  lds r31, uart_sniff_fate
+  cpi r31, UART_FATE_ARM
+  brne .Lsn_set
   /* This servo's packet: arm. A PING armed at its instruction (LENGTH 2) answers with the
    * loaded ready reply; anything else streams from it its header FF FF ID and waits for
    * the main loop's uart_reply_publish(). */
@@ -152,96 +209,40 @@
   ldi r30, UART_REPLY_ARMED
   sts uart_tx_state, r30
   ldi r24, UART_SNIFF_ARMED
-  rjmp .Lsniff_wake
-
-/* The checksum of another servo's packet: when it is good, the whole packet is dropped by
- * moving the head back to the tail (the sniff starts with an empty ring, the main loop leaves
- * the ring alone while it runs, and each dropped packet empties it again, so the ring holds
- * exactly this packet), and the sniff waits for the next one; the main loop is not woken. */
-.Lsn_skip_checksum:
-  lds r30, uart_sniff_sum
-  add r30, r25
-  cpi r30, 0xFF
-  brne 3f
-  lds r30, uart_rx_tail              /* the ring holds this packet and nothing else */
-  sts uart_rx_head, r30
-  ldi r24, 0
-  sts uart_sniff, r24
-  rjmp .Ltick
-3:
-  rjmp .Lsniff_off
+  sbi _SFR_IO_ADDR(GPIOR0), BOARD_WAKE_BIT /* the main loop prepares the reply */
+  rjmp .Lsn_set
 
   .global USART_RX_vect
 USART_RX_vect:
-  push r18
-  push r19
-  lds r18, _SFR_MEM_ADDR(TCNT1L)     /* UART_RX_READ_CYCLES after the interrupt was raised */
-  lds r19, _SFR_MEM_ADDR(TCNT1H)
   push r24
   in r24, _SFR_IO_ADDR(SREG)
   push r24
   push r25
-  lds r24, _SFR_MEM_ADDR(UCSR0A)     /* FE0/DOR0 describe the byte in UDR0: read it first */
-  lds r25, _SFR_MEM_ADDR(UDR0)
-  andi r24, _BV(FE0) | _BV(DOR0)
-  brne .Lline_error
-.Lclassify:
   lds r24, uart_tx_state             /* an armed reply first: it is the timed path */
   cpi r24, UART_REPLY_ARMED
   breq .Larmed
   push r30
   push r31
+  lds r24, _SFR_MEM_ADDR(UCSR0A)     /* FE0/DOR0 describe the byte in UDR0: read it first */
+  lds r25, _SFR_MEM_ADDR(UDR0)
+  andi r24, _BV(FE0) | _BV(DOR0)
+  brne .Lline_error
+.Lclassify:
   lds r24, uart_sniff
   cpi r24, UART_SNIFF_ARMED
-  brsh .Lstore_wake
+  brsh 1f
   rjmp .Lsniff                       /* a sniff is under way (reply IDLE) */
-
-.Lline_error:
-  lds r24, uart_rx_line_error_count
-  inc r24
-  breq .Lclassify                    /* saturate at 255 */
-  sts uart_rx_line_error_count, r24
-  rjmp .Lclassify
-
-/* ARMED: this byte is the checksum of the packet whose reply is loaded. Z is pushed only
- * after the UDR0 write on the Return Delay Time 0-1 path. */
-.Larmed:
-  lds r24, uart_tx_checksum
-  cp r25, r24
-  brne .Lmismatch
-  lds r24, uart_tx_mode
-  cpi r24, UART_START_NOW
-  brne .Ldelayed
-  sbi _SFR_IO_ADDR(PORTD), UART_BUS_DIR_BIT
-  ldi r24, DXL_HEADER_BYTE_ASM        /* every status packet starts with it */
-  sts _SFR_MEM_ADDR(UDR0), r24       /* the reply starts here */
-  push r30
-  push r31
-  rcall uart_sending
-  rjmp .Lstore_wake
-
-.Lmismatch:
-  push r30
-  push r31
-  ldi r24, UART_REPLY_IDLE           /* the main loop handles the packet as usual */
-  sts uart_tx_state, r24
-  rjmp .Lstore_wake
-
-.Ldelayed:
-  push r30
-  push r31
-  lds r30, uart_tx_delay_ticks
-  lds r31, uart_tx_delay_ticks + 1
-  add r30, r18
-  adc r31, r19
-  sbiw r30, UART_SPIN_COMPENSATION_TICKS /* Z = the tick at which to leave the spin */
-  cpi r24, UART_START_TIMER
-  breq .Ltimer
-  rcall uart_spin_and_send
-
-.Lstore_wake:
+1:
+  ldi r24, OFF_READ_LATE_TICKS
+/* r24 = ticks this path reads TCNT1 late: note the tick, store the byte, wake the main loop. */
+.Lstamp:
+  lds r30, _SFR_MEM_ADDR(TCNT1L)
+  lds r31, _SFR_MEM_ADDR(TCNT1H)
+  sub r30, r24
+  sbci r31, 0
+  sts uart_rx_tick + 1, r31
+  sts uart_rx_tick, r30
   sbi _SFR_IO_ADDR(GPIOR0), BOARD_WAKE_BIT /* a byte for the main loop */
-.Lstore:
   lds r24, uart_rx_head
   lds r30, uart_rx_tail
   mov r31, r24
@@ -256,25 +257,84 @@ USART_RX_vect:
   st Z, r25
   inc r24
   sts uart_rx_head, r24              /* publish the byte after it is stored */
-.Ltick:
-  sts uart_rx_tick, r18
-  sts uart_rx_tick + 1, r19
+.Lexit:
   pop r31
   pop r30
+.Lexit_no_z:
   pop r25
   pop r24
   out _SFR_IO_ADDR(SREG), r24
   pop r24
-  pop r19
-  pop r18
   reti
 
 .Lfull:
   lds r24, uart_rx_dropped_count
   inc r24
-  breq .Ltick                        /* saturate at 255 */
+  breq .Lexit                        /* saturate at 255 */
   sts uart_rx_dropped_count, r24
-  rjmp .Ltick
+  rjmp .Lexit
+
+.Lline_error:
+  lds r24, uart_rx_line_error_count
+  inc r24
+  breq .Lclassify                    /* saturate at 255 */
+  sts uart_rx_line_error_count, r24
+  rjmp .Lclassify
+
+/* ARMED: this byte is the checksum of the packet whose reply is loaded. Z is pushed only
+ * after the UDR0 write on the Return Delay Time 0-1 path. */
+.Larmed:
+  lds r24, _SFR_MEM_ADDR(UCSR0A)
+  lds r25, _SFR_MEM_ADDR(UDR0)
+  andi r24, _BV(FE0) | _BV(DOR0)
+  brne .Larmed_line_error
+.Larmed_compare:
+  lds r24, uart_tx_checksum
+  cp r25, r24
+  brne .Lmismatch
+  lds r24, uart_tx_mode
+  cpi r24, UART_START_NOW
+  brne .Ldelayed
+  sbi _SFR_IO_ADDR(PORTD), UART_BUS_DIR_BIT
+  ldi r24, DXL_HEADER_BYTE_ASM        /* every status packet starts with it */
+  sts _SFR_MEM_ADDR(UDR0), r24       /* the reply starts here */
+  push r30
+  push r31
+  rcall uart_sending
+.Larmed_done:                        /* the reply is under way: the main loop commits it */
+  sbi _SFR_IO_ADDR(GPIOR0), BOARD_WAKE_BIT
+  rjmp .Lsn_hold                     /* the ring has room: it held the packet's other bytes */
+
+.Larmed_line_error:
+  lds r24, uart_rx_line_error_count
+  inc r24
+  breq .Larmed_compare               /* saturate at 255 */
+  sts uart_rx_line_error_count, r24
+  rjmp .Larmed_compare
+
+.Lmismatch:
+  push r30
+  push r31
+  ldi r24, UART_REPLY_IDLE           /* the main loop handles the packet as usual */
+  sts uart_tx_state, r24
+  ldi r24, MISMATCH_READ_LATE_TICKS
+  rjmp .Lstamp
+
+.Ldelayed:
+  push r30
+  push r31
+  lds r30, _SFR_MEM_ADDR(TCNT1L)
+  lds r31, _SFR_MEM_ADDR(TCNT1H)
+  sbiw r30, UART_SPIN_COMPENSATION_TICKS + UART_ARMED_READ_LATE_TICKS
+  lds r24, uart_tx_delay_ticks
+  add r30, r24
+  lds r24, uart_tx_delay_ticks + 1
+  adc r31, r24                       /* Z = the tick at which to leave the spin */
+  lds r24, uart_tx_mode
+  cpi r24, UART_START_TIMER
+  breq .Ltimer
+  rcall uart_spin_and_send
+  rjmp .Larmed_done
 
 .Ltimer:
   sts uart_tx_start_tick + 1, r31    /* TIMER1_COMPA spins until this tick */
@@ -287,7 +347,7 @@ USART_RX_vect:
   sts _SFR_MEM_ADDR(TIMSK1), r24
   ldi r24, UART_REPLY_WAITING
   sts uart_tx_state, r24
-  rjmp .Lstore_wake
+  rjmp .Larmed_done
 
 /* TIMER1_COMPA: UART_COMPA_EARLY_TICKS before a WAITING reply's start tick. Spins to the exact
  * tick, starts the reply and switches COMPA off. An entry before that is a stale OCF1A from an
