@@ -29,7 +29,8 @@ void control_tick(dxl_servo_t *servo) {
   };
   const int16_t drive = dxl_control_tick(&control, servo, &sensors, &led_on);
   const uint16_t magnitude = (uint16_t)(drive < 0 ? -drive : drive);
-  const int16_t duty = (int16_t)(((uint32_t)magnitude * DRIVE_TO_DUTY_MUL) >> DRIVE_TO_DUTY_SHIFT);
+  /* >> 12 as a byte move (>> 8) and >> 4 on 16 bits: a 32-bit shift is a 12-turn loop. */
+  const int16_t duty = (int16_t)((uint16_t)(((uint32_t)magnitude * DRIVE_TO_DUTY_MUL) >> 8) >> (DRIVE_TO_DUTY_SHIFT - 8u));
   motor_set_drive(drive < 0 ? (int16_t)-duty : duty);
 }
 

@@ -25,8 +25,8 @@ void dxl_control_init(dxl_control_t *control) {
 
 uint8_t dxl_control_slope_shift(uint8_t slope) {
   uint8_t shift = SLOPE_SHIFT_MIN;
-  while (shift < SLOPE_SHIFT_MAX && (1u << shift) < slope) {
-    shift++;
+  for (uint16_t power = 1u << SLOPE_SHIFT_MIN; shift < SLOPE_SHIFT_MAX && power < slope; power <<= 1) {
+    shift++; /* power = 1 << shift, kept rather than recomputed (AVR shifts loop per bit) */
   }
   return shift;
 }
