@@ -29,7 +29,8 @@ uint16_t adc_read_blocking(uint8_t channel) {
 }
 
 uint8_t adc_supply_decivolts(uint16_t reading) {
-  return (uint8_t)(((uint32_t)reading * 250u + 512u) >> 10); /* <= 250 */
+  /* >> 10 as a byte move and >> 2 on 16 bits (a 32-bit shift is a loop a bit): <= 250 */
+  return (uint8_t)((uint16_t)(((uint32_t)reading * 250u + 512u) >> 8) >> 2);
 }
 
 uint8_t adc_temperature_c(uint16_t reading) {
