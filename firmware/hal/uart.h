@@ -35,7 +35,7 @@
 #include <avr/io.h>
 
 /* Ring size: a power of two, <= 128. At 1 Mbps the main loop pushes a byte into the packet
- * finder in about 150 cycles and the RX ISR takes about 74 of every 160 on the finder's path:
+ * finder in about 150 cycles and the RX ISR takes about 78 of every 160 on the finder's path:
  * a 259-byte packet sent back to back leaves up to about 70 bytes waiting (docs/firmware.md
  * "Receive"). */
 #define UART_RX_RING_BYTES 128

@@ -134,6 +134,7 @@
   sts uart_sniff, r24
 .Lsn_hold:                           /* held: the LENGTH bound keeps the ring from filling */
   lds r24, uart_rx_head
+.Lstore_at_head:                     /* r24 = uart_rx_head, the ring has room */
   mov r30, r24
   andi r30, UART_RX_RING_MASK
   ldi r31, 0
@@ -141,7 +142,7 @@
   sbci r31, hi8(-(uart_rx_ring))
   st Z, r25
   inc r24
-  sts uart_rx_head, r24
+  sts uart_rx_head, r24              /* publish the byte after it is stored */
   rjmp .Lexit
 
 .Lsn_instruction:
@@ -248,31 +249,21 @@ USART_RX_vect:
   mov r31, r24
   sub r31, r30                       /* bytes in the ring */
   cpi r31, UART_RX_RING_BYTES
-  brsh .Lfull
-  mov r30, r24
-  andi r30, UART_RX_RING_MASK
-  ldi r31, 0
-  subi r30, lo8(-(uart_rx_ring))
-  sbci r31, hi8(-(uart_rx_ring))
-  st Z, r25
+  brsh 1f
+  rjmp .Lstore_at_head
+1:
+  lds r24, uart_rx_dropped_count     /* full */
   inc r24
-  sts uart_rx_head, r24              /* publish the byte after it is stored */
+  breq .Lexit                        /* saturate at 255 */
+  sts uart_rx_dropped_count, r24
 .Lexit:
   pop r31
   pop r30
-.Lexit_no_z:
   pop r25
   pop r24
   out _SFR_IO_ADDR(SREG), r24
   pop r24
   reti
-
-.Lfull:
-  lds r24, uart_rx_dropped_count
-  inc r24
-  breq .Lexit                        /* saturate at 255 */
-  sts uart_rx_dropped_count, r24
-  rjmp .Lexit
 
 .Lline_error:
   lds r24, uart_rx_line_error_count
