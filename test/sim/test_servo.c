@@ -372,6 +372,60 @@ static void test_a_sync_write_to_30_servos_at_1_mbps_is_applied(void **state) {
   harness_close(&h);
 }
 
+/* The RX interrupt's sniff holds a packet's bytes up to fixed bounds, past which the main
+ * loop's finder takes them (docs/firmware.md "Receive"): at most 7 header bytes FF .. FF (so
+ * up to 5 extra 0xFF before the ID) and LENGTH at most 96. A packet on either side of each
+ * bound is answered or applied the same; within them a READ's reply is armed (it starts
+ * within 40 cycles at Return Delay Time 0). */
+static void test_packets_on_both_sides_of_the_sniff_bounds_are_handled_alike(void **state) {
+  (void)state;
+  harness_t h;
+  open_one(&h, NULL);
+  write_byte(&h, 1, 5, 0); /* Return Delay Time 0 */
+  for (size_t extra = 0; extra <= 8; extra++) {
+    uint8_t bytes[32];
+    memset(bytes, 0xFF, extra);
+    const size_t len = extra + harness_packet(bytes + extra, 1, DXL_INST_READ, HP(3, 1));
+    master_rx_clear(h.master);
+    const sim_cycles_t request_end = master_send(h.master, bytes, len);
+    world_run_until(h.world, request_end);
+    uint8_t reply[64];
+    const size_t n = harness_exchange(&h, NULL, 0, STATUS_LEN(1), reply, sizeof reply);
+    expect_status(&h, reply, n, 1, 0, HP(1));
+    const sim_cycles_t latency = master_rx(h.master, 0)->start - request_end;
+    if (extra <= 5 && latency > 40) {
+      fail_msg("READ behind %zu extra 0xFF: reply %llu cycles after the stop bit, not armed", extra,
+               (unsigned long long)latency);
+    }
+  }
+  /* Broadcast SYNC_WRITEs of LENGTH 96 (held whole) and 97 (the finder's), each followed at
+   * once by a READ of what it wrote to servo 1. */
+  static const struct {
+    uint8_t servos, data_len;
+  } shapes[] = {{23, 3}, {31, 2}};
+  for (size_t k = 0; k < 2; k++) {
+    uint8_t params[2 + 31 * 4];
+    size_t count = 0;
+    params[count++] = 26; /* the Compliance Margins (and CW Compliance Slope) */
+    params[count++] = shapes[k].data_len;
+    for (uint8_t i = 0; i < shapes[k].servos; i++) {
+      params[count++] = (uint8_t)(i + 1);
+      for (uint8_t b = 0; b < shapes[k].data_len; b++) {
+        params[count++] = (uint8_t)(0x20 + k + b);
+      }
+    }
+    uint8_t bytes[160];
+    size_t len = harness_packet(bytes, DXL_ID_BROADCAST, DXL_INST_SYNC_WRITE, params, count);
+    assert_int_equal(bytes[3], 94u + 2u + k); /* LENGTH */
+    len += harness_packet(bytes + len, 1, DXL_INST_READ, HP(26, shapes[k].data_len));
+    uint8_t reply[64];
+    const size_t n = harness_exchange(&h, bytes, len, STATUS_LEN(shapes[k].data_len), reply, sizeof reply);
+    uint8_t want[3] = {(uint8_t)(0x20 + k), (uint8_t)(0x21 + k), (uint8_t)(0x22 + k)};
+    expect_status(&h, reply, n, 1, 0, want, shapes[k].data_len);
+  }
+  harness_close(&h);
+}
+
 static void test_every_firmware_variant_boots_and_answers(void **state) {
   (void)state;
   static const char *const profiles[] = {"ax12", "ax12a"};
@@ -405,6 +459,7 @@ int main(void) {
       cmocka_unit_test(test_a_fresh_state_file_is_seeded_with_the_id_and_baud_asked_for),
       cmocka_unit_test(test_servos_on_one_wire_answer_their_own_ids_and_collide_on_broadcast_ping),
       cmocka_unit_test(test_a_sync_write_to_30_servos_at_1_mbps_is_applied),
+      cmocka_unit_test(test_packets_on_both_sides_of_the_sniff_bounds_are_handled_alike),
       cmocka_unit_test(test_every_firmware_variant_boots_and_answers),
   };
   return cmocka_run_group_tests_name("sim servo (firmware ELF)", tests, NULL, NULL);
