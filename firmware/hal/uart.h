@@ -35,7 +35,7 @@
 #include <avr/io.h>
 
 /* Ring size: a power of two, <= 128. At 1 Mbps the main loop pushes a byte into the packet
- * finder in about 150 cycles and the RX ISR takes about 78 of every 160 on the finder's path:
+ * finder in about 150 cycles and the RX ISR takes about 74 of every 160 on the finder's path:
  * a 259-byte packet sent back to back leaves up to about 70 bytes waiting (docs/firmware.md
  * "Receive"). */
 #define UART_RX_RING_BYTES 128
@@ -103,11 +103,11 @@
  * the spin sees its tick. TIMER1_COMPA is set UART_COMPA_EARLY_TICKS before start, so its
  * entry and a TIMER1_COMPB ISR (45 cycles) just before it do not delay the reply. */
 #define UART_SPIN_COMPENSATION_TICKS 2
-/* The armed path reads TCNT1 27 cycles after that reference (it tests the armed state and
- * the checksum first, for the Return Delay Time 0 latency): 3 ticks, 3 cycles left over. */
+/* The armed path reads TCNT1 25 cycles after that reference (it tests the armed state and
+ * the checksum first, for the Return Delay Time 0 latency): 3 ticks, 1 cycle left over. */
 #define UART_ARMED_READ_LATE_TICKS 3
 #define UART_COMPA_EARLY_TICKS 12
-/* Up to this delay the NOW path's own latency (UDR0 written 31 cycles after the RX vector is
+/* Up to this delay the NOW path's own latency (UDR0 written 29 cycles after the RX vector is
  * entered; silicon adds its 4-cycle interrupt response) is nearer the target than a spin:
  * Return Delay Time 1 (32 cycles) starts as NOW. */
 #define UART_NOW_MAX_DELAY_TICKS 7

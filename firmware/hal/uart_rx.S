@@ -44,8 +44,8 @@
 
 /* Whole Timer1 ticks (8 cycles) by which each path reads TCNT1 after the reference moment
  * (uart.h: 6 cycles after the vector is entered), counted from the code below and rounded
- * down, so a late reply is never early: the finder's byte 23 cycles, an armed checksum that
- * differs 29, the byte that ends the sniff (from its checksum state) 51. */
+ * down, so a late reply is never early: the finder's byte 21 cycles, an armed checksum that
+ * differs 27, the byte that ends the sniff (from its checksum state) 49. */
 #define OFF_READ_LATE_TICKS 2
 #define MISMATCH_READ_LATE_TICKS 3
 #define HAND_OVER_READ_LATE_TICKS 6
@@ -215,9 +215,9 @@
 
   .global USART_RX_vect
 USART_RX_vect:
-  push r24
-  in r24, _SFR_IO_ADDR(SREG)
-  push r24
+  out _SFR_IO_ADDR(GPIOR1), r24      /* r24 and SREG kept in GPIOR1/2 (1 cycle, not 2): only */
+  in r24, _SFR_IO_ADDR(SREG)         /* this ISR uses them, and it never nests in itself */
+  out _SFR_IO_ADDR(GPIOR2), r24
   push r25
   lds r24, uart_tx_state             /* an armed reply first: it is the timed path */
   cpi r24, UART_REPLY_ARMED
@@ -260,9 +260,9 @@ USART_RX_vect:
   pop r31
   pop r30
   pop r25
-  pop r24
+  in r24, _SFR_IO_ADDR(GPIOR2)
   out _SFR_IO_ADDR(SREG), r24
-  pop r24
+  in r24, _SFR_IO_ADDR(GPIOR1)
   reti
 
 .Lline_error:
