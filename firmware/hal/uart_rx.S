@@ -117,8 +117,8 @@
   rjmp .Lsn_next
 
 .Lsniff:
-  cpi r24, UART_SNIFF_BODY           /* the most frequent first */
-  breq .Lsn_body
+  cpi r24, UART_SNIFF_BODY           /* the most frequent first; r24 is the next state too */
+  breq .Lsn_sum
   cpi r24, UART_SNIFF_ID
   brlo .Lsn_header                   /* 0, 1: FF FF */
   breq .Lsn_id
