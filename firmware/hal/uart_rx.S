@@ -340,6 +340,16 @@ USART_RX_vect:
   sts uart_tx_state, r24
   rjmp .Larmed_done
 
+/* The frame TIMER1_COMPA and USART_UDRE save (r24, SREG, r25, Z); uart_isr_return restores it. */
+.macro SAVE_ISR_FRAME
+  push r24
+  in r24, _SFR_IO_ADDR(SREG)
+  push r24
+  push r25
+  push r30
+  push r31
+.endm
+
 /* TIMER1_COMPA: UART_COMPA_EARLY_TICKS before a WAITING reply's start tick. Spins to the exact
  * tick, starts the reply and switches COMPA off. An entry before that is a stale OCF1A from an
  * earlier match (OCR1A matches once every timer period), left set on purpose: clearing it by
@@ -349,12 +359,7 @@ USART_RX_vect:
   .section .text.uart_compa_isr, "ax", @progbits
   .global TIMER1_COMPA_vect
 TIMER1_COMPA_vect:
-  push r24
-  in r24, _SFR_IO_ADDR(SREG)
-  push r24
-  push r25
-  push r30
-  push r31
+  SAVE_ISR_FRAME
   lds r30, uart_tx_start_tick
   lds r31, uart_tx_start_tick + 1
   lds r24, _SFR_MEM_ADDR(TCNT1L)
@@ -376,12 +381,7 @@ TIMER1_COMPA_vect:
   .section .text.uart_udre_isr, "ax", @progbits
   .global USART_UDRE_vect
 USART_UDRE_vect:
-  push r24
-  in r24, _SFR_IO_ADDR(SREG)
-  push r24
-  push r25
-  push r30
-  push r31
+  SAVE_ISR_FRAME
   lds r24, uart_tx_next
   lds r25, uart_tx_published
   cp r24, r25
