@@ -4,6 +4,7 @@
 #include <avr/io.h>
 
 #define TCCR0A_FAST_PWM (_BV(WGM01) | _BV(WGM00))
+#define TCCR0B_RUN _BV(CS00) /* no prescaler: 62.5 kHz */
 
 static int16_t applied_drive; /* registers are written only when the drive changes */
 
@@ -13,7 +14,7 @@ void motor_init(void) {
   OCR0A = 0;
   OCR0B = 0;
   TCCR0A = TCCR0A_FAST_PWM;
-  TCCR0B = _BV(CS00);
+  TCCR0B = 0; /* stopped until the first drive */
 }
 
 void motor_set_drive(int16_t drive) {
@@ -26,6 +27,9 @@ void motor_set_drive(int16_t drive) {
     return;
   }
   applied_drive = drive;
+  /* The timer runs only while the motor is driven; it starts before a duty is written (a
+   * compare value written to a stopped timer reaches no pin before the next start). */
+  TCCR0B = TCCR0B_RUN;
   /* The other side goes to 0 first: never both non-zero. */
   if (drive > 0) {
     OCR0B = 0;
@@ -39,5 +43,6 @@ void motor_set_drive(int16_t drive) {
     TCCR0A = TCCR0A_FAST_PWM;
     OCR0A = 0;
     OCR0B = 0;
+    TCCR0B = 0; /* coast: both pins are port outputs (low), the timer has nothing to do */
   }
 }

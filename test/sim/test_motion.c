@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include <cmocka.h>
+#include <sim_avr.h>
 
 #include "dxl_protocol.h"
 #include "plant_options.h"
@@ -95,6 +96,10 @@ static uint8_t ping_error(rig_t *r) {
 
 static int signed_register(uint16_t v) { return (v & 0x400u) ? -(int)(v & 0x3FFu) : (int)(v & 0x3FFu); }
 
+/* Timer0's clock select (TCCR0B, data address 0x45 on the ATmega88/328P): the firmware runs
+ * the PWM timer only while the motor is driven (firmware/hal/motor.c). */
+static bool pwm_timer_running(const rig_t *r) { return (r->servo->avr->data[0x45] & 0x07u) != 0; }
+
 /* Polls Moving every 5 ms until it reads 0; returns the simulated ms it took (fails past limit_ms). */
 static unsigned wait_until_still(rig_t *r, unsigned limit_ms) {
   for (unsigned t = 0; t <= limit_ms; t += 5) {
@@ -120,10 +125,13 @@ static void goal_move(const char *profile) {
   rig_open(&r, profile, NULL);
   const uint16_t start = read_u16(&r, A_PRESENT_POSITION);
   assert_in_range(start, 510, 514);
+  assert_false(pwm_timer_running(&r)); /* torque off: coasting */
   write_u8(&r, A_TORQUE_ENABLE, 1);
   write_u16(&r, A_GOAL, 700);
   run_ms(&r, 20);
   assert_int_equal(read_u8(&r, A_MOVING), 1);
+  assert_true(pwm_timer_running(&r));
+  assert_true(board_pwm_duty(&r.servo->board) > 0.0);
   assert_true(read_u16(&r, A_PRESENT_POSITION) > start);
   const unsigned took = wait_until_still(&r, 2000);
   run_ms(&r, 200);
