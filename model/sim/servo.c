@@ -198,17 +198,33 @@ void servo_destroy(servo_t *servo) {
   free(servo);
 }
 
-/* One step of the core, as simavr 1.6's avr_callback_run_raw() without its sleep: run an
- * instruction (if awake), the due cycle timers, and the interrupts. A sleeping core's clock
+/* One step of the core, as simavr 1.6's avr_callback_run_raw() without its sleep: run
+ * instructions (if awake), the due cycle timers, and the interrupts. A sleeping core's clock
  * is advanced by servo_run_until() instead, exactly to its next timer (simavr would jump one
- * cycle past it, and from there to the following timer within the same call). */
-static inline __attribute__((always_inline)) void step_core(avr_t *avr) {
+ * cycle past it, and from there to the following timer within the same call).
+ *
+ * A running core executes a batch: avr_run_one() goes on from instruction to instruction
+ * while avr->run_cycle_count cycles are left, the core runs and no interrupt is pending, and
+ * simavr re-clamps run_cycle_count to the first cycle timer whenever one is registered or
+ * cancelled (with avr->run_cycle_limit above any distance, SERVO_RUN_CYCLE_LIMIT). So a batch
+ * ends at the first instruction boundary at or after the first cycle timer, which is where
+ * an instruction-by-instruction loop would have processed it: the same cycles, fewer calls.
+ * A batch also stops at `until` (the caller's horizon) should the horizon timer be gone (a
+ * watchdog reset inside the call empties the pool, and sets the limit back to 1, so nothing
+ * re-clamps past it). until = 0 runs one instruction (the busy-time probe looks at every
+ * one). */
+#define SERVO_RUN_CYCLE_LIMIT ((avr_cycle_count_t)1u << 40)
+
+static inline __attribute__((always_inline)) void step_core(avr_t *avr, sim_cycles_t until) {
   avr_flashaddr_t new_pc = avr->pc;
   if (avr->state == cpu_Running) {
+    const avr_cycle_timer_slot_p first = avr->cycle_timers.timer;
+    const sim_cycles_t end = first && first->when < until ? first->when : until;
+    avr->run_cycle_count = end > avr->cycle ? end - avr->cycle : 1u;
     new_pc = avr_run_one(avr);
   }
-  const avr_cycle_timer_slot_p first = avr->cycle_timers.timer;
-  if (first && first->when <= avr->cycle) { /* what avr_cycle_timer_process() checks first */
+  const avr_cycle_timer_slot_p due = avr->cycle_timers.timer;
+  if (due && due->when <= avr->cycle) { /* what avr_cycle_timer_process() checks first */
     (void)avr_cycle_timer_process(avr);
   }
   avr->pc = new_pc;
@@ -221,7 +237,7 @@ static inline __attribute__((always_inline)) void step_core(avr_t *avr) {
   }
 }
 
-static void run_step(avr_t *avr) { step_core(avr); }
+static void run_step(avr_t *avr) { step_core(avr, 0); }
 
 /* Busy-time probe: from the instruction at probe_pc (an ISR's entry) until the core sleeps
  * again. An entry while already inside (the work overran into the next period) extends it. */
@@ -301,15 +317,13 @@ sim_cycles_t servo_earliest_wake(const servo_t *servo, sim_cycles_t now) {
   if (avr->state != cpu_Sleeping || avr->interrupt_state) {
     return now;
   }
-  unsigned quiet = 0;
-  for (unsigned i = 0; i < servo->timer_count; i++) {
-    quiet |= timer_quiet(avr, servo->timers[i]) ? 1u << i : 0u;
-  }
+  /* The first timer that can wake it; a timer module's quietness is looked up only when one
+   * of its events comes first (usually the first slot is the control tick's, or a byte's). */
   for (avr_cycle_timer_slot_p slot = avr->cycle_timers.timer; slot; slot = slot->next) {
     bool skip = false;
     for (unsigned i = 0; i < servo->timer_count; i++) {
       if (slot->param == servo->timers[i]) {
-        skip = (quiet >> i) & 1u;
+        skip = timer_quiet(avr, servo->timers[i]);
         break;
       }
     }
@@ -320,11 +334,32 @@ sim_cycles_t servo_earliest_wake(const servo_t *servo, sim_cycles_t now) {
   return SIM_CYCLES_NEVER;
 }
 
+/* The horizon of a servo_run_until() call, as a cycle timer: no batch runs past it. */
+static avr_cycle_count_t horizon_reached(avr_t *avr, avr_cycle_count_t when, void *param) {
+  (void)avr;
+  (void)when;
+  ((servo_t *)param)->horizon_pending = false;
+  return 0;
+}
+
 void servo_run_until(servo_t *servo, sim_cycles_t t) {
   avr_t *avr = servo->avr;
+  if (servo->halted || avr->cycle >= t) {
+    return;
+  }
+  const avr_cycle_timer_slot_p first = avr->cycle_timers.timer;
+  if (avr->state == cpu_Sleeping && !avr->interrupt_state && (!first || first->when >= t)) {
+    servo->sleep_cycles += t - avr->cycle; /* nothing wakes it before t: the usual case */
+    avr->cycle = t;
+    return;
+  }
+  avr->run_cycle_limit = SERVO_RUN_CYCLE_LIMIT; /* avr_reset() sets it back to 1 */
+  avr_cycle_timer_register(avr, t - avr->cycle, horizon_reached, servo);
+  servo->horizon_pending = true;
+  const sim_cycles_t until = servo->single_step || servo->probe_pc ? 0 : t;
   while (!servo->halted && avr->cycle < t) {
     if (avr->state == cpu_Sleeping) {
-      const avr_cycle_timer_slot_p next = avr->cycle_timers.timer;
+      const avr_cycle_timer_slot_p next = avr->cycle_timers.timer; /* at t at the latest */
       if (!next || next->when >= t) {
         servo->sleep_cycles += t - avr->cycle;
         avr->cycle = t;
@@ -335,7 +370,7 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
         avr->cycle = next->when;
       }
     }
-    step_core(avr);
+    step_core(avr, until);
     if (servo->probe_pc) {
       probe(servo);
     }
@@ -346,6 +381,10 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
               avr->state == cpu_Done ? "sleep with interrupts off" : "crash", (unsigned long long)avr->cycle,
               (unsigned)avr->pc);
     }
+  }
+  if (servo->horizon_pending) { /* it slept to t, or a reset emptied the pool */
+    avr_cycle_timer_cancel(avr, horizon_reached, servo);
+    servo->horizon_pending = false;
   }
 }
 

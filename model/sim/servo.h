@@ -82,6 +82,10 @@ typedef struct servo {
    * the world polls persistence only then; lowered to the plant's next due time. */
   bool *persist_due;
   sim_cycles_t *plant_due;
+  /* Run instruction by instruction instead of in batches up to the next cycle timer
+   * (servo_run_until): slower, the same cycles; the reference a test checks batches against. */
+  bool single_step;
+  bool horizon_pending; /* servo_run_until()'s horizon timer is in the pool */
   /* Busy-time probe (servo_set_probe). */
   uint32_t probe_pc;      /* byte address of an ISR's entry; 0 = off */
   bool probe_inside;
@@ -99,7 +103,9 @@ void servo_destroy(servo_t *servo);
 
 /* Runs the MCU until its clock reaches t: a running core stops at the first instruction
  * boundary at or after t, a sleeping one exactly at t. A sleeping core's clock jumps from
- * one cycle timer to the next (idle firmware costs almost nothing). */
+ * one cycle timer to the next (idle firmware costs almost nothing); a running one executes
+ * the instructions up to the next cycle timer (or t) in one call into simavr, which stops
+ * at the same boundaries as one instruction at a time would (single_step). */
 void servo_run_until(servo_t *servo, sim_cycles_t t);
 
 /* The earliest simulated time at which this MCU may execute an instruction (and so start a

@@ -455,6 +455,86 @@ static void test_angle_limit_alarm_ax12a(void **state) {
   angle_limit_alarm("ax12a");
 }
 
+/* ---- the simulator's batched runs (model/sim/servo.c) ---- */
+
+/* A script that exercises every path of the firmware on three moving servos: replies at
+ * Return Delay Time 0 (the RX ISR), 3 (its spin) and 250 (Timer1 COMPA), broadcast PINGs that
+ * collide, a SYNC_WRITE, EEPROM writes, motion with its PWM starting and stopping. Every
+ * byte the master heard is appended to log (start, end, value, flags). */
+#define SCRIPT_LOG_MAX 4096u
+
+typedef struct {
+  harness_t h;
+  servo_t *servo[3];
+  bus_rx_t log[SCRIPT_LOG_MAX];
+  size_t logged;
+} script_world_t;
+
+static void script_exchange(script_world_t *w, uint8_t id, uint8_t instruction, const uint8_t *params, size_t count,
+                            size_t expect) {
+  uint8_t reply[HARNESS_MAX_REPLY];
+  (void)harness_request(&w->h, id, instruction, params, count, expect, reply);
+  for (size_t i = 0; i < master_rx_count(w->h.master) && w->logged < SCRIPT_LOG_MAX; i++) {
+    w->log[w->logged++] = *master_rx(w->h.master, i);
+  }
+}
+
+static void script_run(script_world_t *w, bool single_step) {
+  memset(w, 0, sizeof(*w));
+  harness_open(&w->h, "ax12", "atmega88", 1);
+  plant_options_t options;
+  plant_options_default(&options);
+  ax12_plant_t plant;
+  plant_options_build(&options, &plant);
+  for (unsigned i = 0; i < 3; i++) {
+    w->servo[i] = harness_add_servo(&w->h, (uint8_t)(i + 1u), 1, NULL);
+    w->servo[i]->single_step = single_step;
+    servo_attach_plant(w->servo[i], &plant);
+  }
+  harness_boot(&w->h, 450);
+  script_exchange(w, 2, DXL_INST_WRITE, HP(5, 3), 6);   /* Return Delay Time 3: the spin */
+  script_exchange(w, 3, DXL_INST_WRITE, HP(5, 250), 6); /* 250: Timer1 COMPA */
+  script_exchange(w, 1, DXL_INST_WRITE, HP(5, 0), 6);
+  script_exchange(w, DXL_ID_BROADCAST, DXL_INST_WRITE, HP(A_TORQUE_ENABLE, 1), 0);
+  script_exchange(w, DXL_ID_BROADCAST, DXL_INST_SYNC_WRITE,
+                  HP(A_GOAL, 2, 1, 0x20, 0x03, 2, 0x00, 0x01, 3, 0xC0, 0x02), 0);
+  for (unsigned round = 0; round < 6; round++) {
+    for (uint8_t id = 1; id <= 3; id++) {
+      script_exchange(w, id, DXL_INST_READ, HP(A_PRESENT_POSITION, 4), 10);
+    }
+    script_exchange(w, DXL_ID_BROADCAST, DXL_INST_PING, H_NO_PARAMS, 6); /* three at once */
+    world_run_until(w->h.world, w->h.world->now + sim_ms(20));
+  }
+}
+
+static void test_batched_runs_match_single_steps(void **state) {
+  (void)state;
+  static script_world_t batched, stepped;
+  script_run(&batched, false);
+  script_run(&stepped, true);
+  assert_true(batched.logged > 100u);
+  assert_int_equal(batched.logged, stepped.logged);
+  for (size_t i = 0; i < batched.logged; i++) {
+    assert_int_equal(batched.log[i].start, stepped.log[i].start);
+    assert_int_equal(batched.log[i].end, stepped.log[i].end);
+    assert_int_equal(batched.log[i].value, stepped.log[i].value);
+    assert_int_equal(batched.log[i].flags, stepped.log[i].flags);
+  }
+  assert_int_equal(batched.h.world->now, stepped.h.world->now);
+  for (unsigned i = 0; i < 3; i++) {
+    const avr_t *a = batched.servo[i]->avr, *b = stepped.servo[i]->avr;
+    assert_int_equal(a->cycle, b->cycle);
+    assert_int_equal(a->pc, b->pc);
+    assert_int_equal(batched.servo[i]->sleep_cycles, stepped.servo[i]->sleep_cycles);
+    assert_memory_equal(a->data, b->data, (size_t)a->ramend + 1u); /* registers, I/O, RAM */
+    assert_true(ax12_plant_angle_deg(&batched.servo[i]->plant) == ax12_plant_angle_deg(&stepped.servo[i]->plant));
+  }
+  /* The script did move them (PWM on). */
+  assert_true(fabs(ax12_plant_angle_deg(&batched.servo[0]->plant) - 150.0) > 20.0);
+  harness_close(&batched.h);
+  harness_close(&stepped.h);
+}
+
 int main(void) {
   if (!AX12_FIRMWARE_SHOWS_ALARM_LED) {
     fprintf(stderr, "note: main.c does not show control_led_on() yet: LED blink counts not checked\n");
@@ -473,6 +553,7 @@ int main(void) {
       cmocka_unit_test(test_overload_alarm_ax12a),
       cmocka_unit_test(test_angle_limit_alarm_ax12),
       cmocka_unit_test(test_angle_limit_alarm_ax12a),
+      cmocka_unit_test(test_batched_runs_match_single_steps),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
