@@ -69,6 +69,13 @@ static uint8_t adc_slot;
 #define SNIFF_MAX_MS 3u
 static uint8_t sniff_age_ms;
 static uint8_t sniff_seen_head; /* uart_rx_head at the last tick */
+/* Another servo's packet the RX ISR skips (uart_skip_count) ends like any partial packet
+ * when no byte came for more than DXL_PACKET_GAP_TIMEOUT_MS (POLICY.md "Framing and bus"). A
+ * count that reads the same at consecutive ticks is taken for no byte (bytes that bring it
+ * back to the same value within 1 ms every time for 100 ms could end a skip early: its rest
+ * then reaches the finder, which frames nothing of it). */
+static uint8_t skip_seen;
+static uint8_t skip_age_ms;
 /* Control ticks run since power-up (wrapping): a host reads it by symbol to count missed ticks. */
 volatile uint16_t control_tick_count;
 static uint8_t boot_blink_ms; /* into the current phase */
@@ -357,6 +364,15 @@ static void service_tick(void) {
   } else {
     sniff_age_ms = 0;
     sniff_seen_head = head;
+  }
+  const uint8_t skip = uart_skip_count;
+  if (skip != 0 && skip == skip_seen) {
+    if (++skip_age_ms > DXL_PACKET_GAP_TIMEOUT_MS) {
+      uart_skip_count = 0; /* a byte just now would have come after the gap: not the packet's */
+    }
+  } else {
+    skip_seen = skip;
+    skip_age_ms = 0;
   }
   if (!armed && dxl_finder_poll(&finder, now_ms)) {
     finder_dirty = true; /* rescan what came before the gap */

@@ -59,6 +59,7 @@ volatile uint8_t uart_sniff_sum;
 volatile uint8_t uart_sniff_count;
 volatile uint8_t uart_sniff_end;
 volatile uint8_t uart_sniff_fate;         /* RX ISR: UART_FATE_* of the packet being framed */
+volatile uint8_t uart_skip_count;         /* RX ISR; main: 0 after a gap */
 const uint8_t *volatile uart_tx_bytes; /* the loaded reply (UDRE ISR reads) */
 volatile uint8_t uart_tx_length;
 
@@ -74,6 +75,7 @@ void uart_init(uint8_t baud_register) {
   UCSR0C = _BV(UCSZ01) | _BV(UCSZ00); /* 8N1 */
   uart_set_baud(baud_register);
   uart_sniff = UART_SNIFF_OFF;
+  uart_skip_count = 0;
   UCSR0B = UART_UCSR0B_LISTEN;
 }
 

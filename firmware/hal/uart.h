@@ -63,8 +63,8 @@
 #define UART_SNIFF_ARMED 8
 #define UART_SNIFF_OFF 0xFF
 /* What the sniff does with the packet it frames, decided at its ID and instruction
- * (uart_sniff_fate): arm its reply, drop it (another servo's, checksum good), or hand it to
- * the finder whole at its checksum (broadcast, or this servo's and not armed). */
+ * (uart_sniff_fate): arm its reply, drop it (another servo's: skipped from its LENGTH on),
+ * or hand it to the finder whole at its checksum (broadcast, or this servo's, not armed). */
 #define UART_FATE_ARM 0
 #define UART_FATE_DROP 1
 #define UART_FATE_HAND_OVER 2
@@ -147,8 +147,9 @@ static inline uint8_t uart_reply_state(void) { return uart_tx_state; }
  *     uart_sniff_end = the ring position just after the checksum). A PING answers with the
  *     loaded reply; anything else streams its first UART_STREAM_HEADER_BYTES and waits for
  *     uart_reply_publish();
- *   - another servo's (not broadcast) with a good checksum: dropped from the ring whole
- *     (the finder would frame it and do nothing), and the sniff goes on with the next;
+ *   - another servo's (not broadcast, LENGTH 2..UART_SNIFF_MAX_LENGTH): at its LENGTH the
+ *     header is dropped from the ring, the RX ISR skips the LENGTH bytes that follow
+ *     (uart_skip_count counts them down), and the sniff goes on with the next header;
  *   - anything else: OFF, the held bytes are the finder's.
  * While the sniff runs (uart_sniff < UART_SNIFF_ARMED) the main loop leaves the ring alone
  * and the bytes do not wake it. Does nothing when a byte came first.
@@ -158,6 +159,9 @@ extern volatile uint8_t uart_sniff;
 extern volatile uint8_t uart_sniff_end;
 void uart_sniff_start(uint8_t id, uint8_t mask);
 void uart_sniff_stop_part_way(void);
+/* Bytes of another servo's packet the RX ISR still skips (0: none). The main loop writes 0
+ * (one store: the ISR's decrement cannot tear it) to end a skip after a gap in the bytes. */
+extern volatile uint8_t uart_skip_count;
 
 /* The rest of a streamed reply is in the loaded buffer: bytes[0..length). Any state. */
 void uart_reply_publish(uint8_t length);

@@ -12,6 +12,8 @@
  *              then as NOW (Return Delay Time 2..6: at most about 130 cycles of spinning);
  *       TIMER  uart_tx_start_tick = start, OCR1A = start - UART_COMPA_EARLY_TICKS;
  *              TIMER1_COMPA spins from there to start, then as NOW.
+ * - SKIP (uart_skip_count > 0, tested second): a byte of another servo's packet, after its
+ *   LENGTH: read, counted down and forgotten, in about 30 cycles with the interrupt's own.
  * - the sniff (uart_sniff 0..UART_SNIFF_CHECKSUM, started by the main loop with the ring and
  *   the finder empty): frames and sums FF FF ID LENGTH INSTRUCTION PARAMS CHECKSUM as they
  *   arrive and holds them in the ring without waking the main loop. Its fate, decided at the
@@ -22,12 +24,14 @@
  *                control tick) delay it. A PING (LENGTH 2) starts the loaded ready reply; any
  *                other packet streams the loaded reply's header FF FF ID, and the UDRE ISR
  *                waits for the main loop to publish the rest;
- *     DROP       another servo's: with a good checksum the ring is emptied again (the finder
- *                would frame it and do nothing) and the sniff waits for the next packet;
+ *     DROP       another servo's (POLICY.md "Framing and bus": parsed to its end by its
+ *                LENGTH and ignored): at its LENGTH the ring is emptied again, the LENGTH
+ *                bytes still to come are skipped (SKIP above) and the sniff waits for the
+ *                next packet's header;
  *     HAND_OVER  broadcast, or this servo's and not armed: at its checksum the sniff ends
  *                and the main loop takes the whole packet in one pass.
- *   Any byte that is no packet (a bad header, LENGTH out of range, a bad checksum) ends the
- *   sniff (UART_SNIFF_OFF).
+ *   Any byte that is no packet (a bad header, LENGTH out of range) ends the sniff
+ *   (UART_SNIFF_OFF), and so does the checksum of a HAND_OVER packet.
  * - OFF (the finder's): append to the ring (or count it dropped when full), note the tick,
  *   wake the main loop.
  * A frame error / data overrun flagged for the byte is counted in every state.
@@ -44,9 +48,10 @@
 
 /* Whole Timer1 ticks (8 cycles) by which each path reads TCNT1 after the reference moment
  * (uart.h: 6 cycles after the vector is entered), counted from the code below and rounded
- * down, so a late reply is never early: the finder's byte 21 cycles, an armed checksum that
- * differs 27, the byte that ends the sniff (from its checksum state) 49. */
-#define OFF_READ_LATE_TICKS 2
+ * down, so a late reply is never early: the finder's byte 25 cycles (its path tests the armed
+ * state and the skip count first), an armed checksum that differs 27, the byte that ends the
+ * sniff (from its checksum state) 53. */
+#define OFF_READ_LATE_TICKS 3
 #define MISMATCH_READ_LATE_TICKS 3
 #define HAND_OVER_READ_LATE_TICKS 6
 
@@ -54,23 +59,9 @@
 /* (Placed before the vector for the branch range.) The sniff: r24 = uart_sniff (its state
  * before this byte, 0..UART_SNIFF_CHECKSUM), r25 = the byte; Z saved. Each state either
  * moves on (and holds the byte), or ends the sniff. */
-/* The checksum of a packet framed and not armed. Another servo's with a good checksum is
- * dropped by moving the head back to the tail (the sniff starts with an empty ring, the main
- * loop leaves the ring alone while it runs, and each dropped packet empties it again, so the
- * ring holds exactly this packet); the main loop is not woken. Anything else ends the sniff. */
+/* The checksum of a packet framed and not armed (HAND_OVER): the whole packet is the
+ * finder's. */
 .Lsn_checksum:
-  lds r30, uart_sniff_sum
-  add r30, r25
-  cpi r30, 0xFF
-  brne .Lsniff_off
-  lds r30, uart_sniff_fate
-  cpi r30, UART_FATE_DROP
-  brne .Lsniff_off
-  lds r30, uart_rx_tail              /* the ring holds this packet and nothing else */
-  sts uart_rx_head, r30
-  ldi r24, 0
-  sts uart_sniff, r24
-  rjmp .Lexit
 .Lsniff_off:                         /* the held bytes and this one are the finder's */
   ldi r24, UART_SNIFF_OFF
   sts uart_sniff, r24
@@ -108,6 +99,9 @@
   brlo .Lsniff_off
   cpi r25, UART_SNIFF_MAX_LENGTH + 1 /* longer: the finder's, so the ring cannot fill */
   brsh .Lsniff_off
+  lds r30, uart_sniff_fate
+  cpi r30, UART_FATE_DROP
+  breq .Lsn_skip
   lds r30, uart_sniff_sum
   add r30, r25
   sts uart_sniff_sum, r30
@@ -115,6 +109,17 @@
   dec r30
   sts uart_sniff_count, r30
   rjmp .Lsn_next
+/* Another servo's: the LENGTH bytes that follow are skipped; the ring, which holds this
+ * packet's header and nothing else (the sniff starts with an empty ring, the main loop leaves
+ * it alone while the sniff runs, and each dropped packet empties it again), is emptied; the
+ * sniff waits for the next header. The main loop is not woken. */
+.Lsn_skip:
+  sts uart_skip_count, r25
+  lds r30, uart_rx_tail
+  sts uart_rx_head, r30
+  ldi r24, 0
+  sts uart_sniff, r24
+  rjmp .Lexit
 
 .Lsniff:
   cpi r24, UART_SNIFF_BODY           /* the most frequent first; r24 is the next state too */
@@ -213,15 +218,35 @@
   sbi _SFR_IO_ADDR(GPIOR0), BOARD_WAKE_BIT /* the main loop prepares the reply */
   rjmp .Lsn_set
 
+/* SKIP: r24 = the count after this byte. */
+.Lskip:
+  sts uart_skip_count, r24
+  lds r24, _SFR_MEM_ADDR(UCSR0A)
+  andi r24, _BV(FE0) | _BV(DOR0)
+  breq .Lskip_read
+  lds r24, uart_rx_line_error_count
+  inc r24
+  breq .Lskip_read                   /* saturate at 255 */
+  sts uart_rx_line_error_count, r24
+.Lskip_read:
+  lds r24, _SFR_MEM_ADDR(UDR0)       /* read and forgotten */
+  in r24, _SFR_IO_ADDR(GPIOR2)
+  out _SFR_IO_ADDR(SREG), r24
+  in r24, _SFR_IO_ADDR(GPIOR1)
+  reti
+
   .global USART_RX_vect
 USART_RX_vect:
   out _SFR_IO_ADDR(GPIOR1), r24      /* r24 and SREG kept in GPIOR1/2 (1 cycle, not 2): only */
   in r24, _SFR_IO_ADDR(SREG)         /* this ISR uses them, and it never nests in itself */
   out _SFR_IO_ADDR(GPIOR2), r24
-  push r25
   lds r24, uart_tx_state             /* an armed reply first: it is the timed path */
   cpi r24, UART_REPLY_ARMED
   breq .Larmed
+  lds r24, uart_skip_count           /* then a byte to skip: r24 only */
+  subi r24, 1
+  brcc .Lskip
+  push r25
   push r30
   push r31
   lds r24, _SFR_MEM_ADDR(UCSR0A)     /* FE0/DOR0 describe the byte in UDR0: read it first */
@@ -275,6 +300,7 @@ USART_RX_vect:
 /* ARMED: this byte is the checksum of the packet whose reply is loaded. Z is pushed only
  * after the UDR0 write on the Return Delay Time 0-1 path. */
 .Larmed:
+  push r25
   lds r24, _SFR_MEM_ADDR(UCSR0A)
   lds r25, _SFR_MEM_ADDR(UDR0)
   andi r24, _BV(FE0) | _BV(DOR0)

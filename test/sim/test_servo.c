@@ -426,6 +426,64 @@ static void test_packets_on_both_sides_of_the_sniff_bounds_are_handled_alike(voi
   harness_close(&h);
 }
 
+/* Another servo's packet is parsed to its end by its LENGTH and ignored (POLICY.md "Framing
+ * and bus"): the RX ISR skips its bytes from the LENGTH on. What follows it at once is heard
+ * from its first byte (a READ right behind it is armed), whatever its parameters hold (a
+ * READ of this servo inside them is no packet), and a packet cut short swallows the next
+ * bytes only within the 100 ms gap rule. */
+static void send_then_read(harness_t *h, const uint8_t *before, size_t before_len, bool expect_answer) {
+  uint8_t bytes[160];
+  memcpy(bytes, before, before_len);
+  const size_t len = before_len + harness_packet(bytes + before_len, 1, DXL_INST_READ, HP(3, 1));
+  master_rx_clear(h->master);
+  const sim_cycles_t request_end = master_send(h->master, bytes, len);
+  world_run_until(h->world, request_end);
+  uint8_t reply[64];
+  const size_t n = harness_exchange(h, NULL, 0, expect_answer ? STATUS_LEN(1) : 0, reply, sizeof reply);
+  if (!expect_answer) {
+    assert_int_equal(n, 0);
+    return;
+  }
+  expect_status(h, reply, n, 1, 0, HP(1));
+  const sim_cycles_t latency = master_rx(h->master, 0)->start - request_end;
+  if (latency > 40) {
+    fail_msg("READ right behind %zu bytes: reply %llu cycles after the stop bit, not armed", before_len,
+             (unsigned long long)latency);
+  }
+}
+
+static void test_another_servos_packet_is_skipped_by_its_length(void **state) {
+  (void)state;
+  harness_t h;
+  open_one(&h, NULL);
+  write_byte(&h, 1, 5, 0); /* Return Delay Time 0 */
+  /* Instructions and status packets of servo 7, LENGTH 2..96; the parameters hide a READ of
+   * servo 1 (FF FF 01 04 02 03 01 F4). */
+  uint8_t hidden[8];
+  (void)harness_packet(hidden, 1, DXL_INST_READ, HP(3, 1));
+  static const uint8_t param_counts[] = {0, 1, 2, 8, 20, 94};
+  for (size_t k = 0; k < sizeof param_counts; k++) {
+    uint8_t params[94];
+    for (size_t i = 0; i < param_counts[k]; i++) {
+      params[i] = hidden[i % sizeof hidden];
+    }
+    uint8_t other[128];
+    const size_t other_len = harness_packet(other, 7, DXL_INST_WRITE, params, param_counts[k]);
+    send_then_read(&h, other, other_len, true);
+  }
+  /* Cut short: FF FF 07 LENGTH 5 and two of its five remaining bytes. */
+  static const uint8_t cut[] = {0xFF, 0xFF, 0x07, 0x05, 0x03, 0x19};
+  assert_int_equal(harness_exchange(&h, cut, sizeof cut, 0, NULL, 0), 0);
+  /* 90 ms on (harness_exchange's silence): the gap is not over, so the READ's first three
+   * bytes complete the packet and the rest is no packet. */
+  send_then_read(&h, NULL, 0, false);
+  /* After a gap of more than 100 ms the partial packet is gone: the READ is heard whole. */
+  assert_int_equal(harness_exchange(&h, cut, sizeof cut, 0, NULL, 0), 0);
+  world_run_until(h.world, h.world->now + sim_ms(20));
+  send_then_read(&h, NULL, 0, true);
+  harness_close(&h);
+}
+
 static void test_every_firmware_variant_boots_and_answers(void **state) {
   (void)state;
   static const char *const profiles[] = {"ax12", "ax12a"};
@@ -460,6 +518,7 @@ int main(void) {
       cmocka_unit_test(test_servos_on_one_wire_answer_their_own_ids_and_collide_on_broadcast_ping),
       cmocka_unit_test(test_a_sync_write_to_30_servos_at_1_mbps_is_applied),
       cmocka_unit_test(test_packets_on_both_sides_of_the_sniff_bounds_are_handled_alike),
+      cmocka_unit_test(test_another_servos_packet_is_skipped_by_its_length),
       cmocka_unit_test(test_every_firmware_variant_boots_and_answers),
   };
   return cmocka_run_group_tests_name("sim servo (firmware ELF)", tests, NULL, NULL);
