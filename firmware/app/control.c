@@ -6,16 +6,12 @@
 #include "dxl_table.h"
 #include "motor.h"
 
-/* drive (0..1023) to duty (0..255) = drive x 255 / 1023, floored: exactly drive x 1021 >> 12
- * for every drive 0..1023 (checked exhaustively; no division on the AVR). */
-#define DRIVE_TO_DUTY_MUL 1021u
-#define DRIVE_TO_DUTY_SHIFT 12u
 
 static dxl_control_t control;
 static bool led_on;
 static uint8_t voltage_dv;
 
-void control_tick(dxl_servo_t *servo) {
+uint8_t control_tick(dxl_servo_t *servo) {
   /* The ADC readings of this tick are already in the table (main.c publishes them). A factory
    * reset clears them until the next conversion of each (Present Voltage: up to 4 ms); a
    * powered servo never reads 0 V, so 0 keeps the last voltage (no input-voltage glitch). */
@@ -28,10 +24,9 @@ void control_tick(dxl_servo_t *servo) {
       .temperature_c = servo->table[CT_ADDR_PRESENT_TEMPERATURE],
   };
   const int16_t drive = dxl_control_tick(&control, servo, &sensors, &led_on);
-  const uint16_t magnitude = (uint16_t)(drive < 0 ? -drive : drive);
-  /* >> 12 as a byte move (>> 8) and >> 4 on 16 bits: a 32-bit shift is a 12-turn loop. */
-  const int16_t duty = (int16_t)((uint16_t)(((uint32_t)magnitude * DRIVE_TO_DUTY_MUL) >> 8) >> (DRIVE_TO_DUTY_SHIFT - 8u));
+  const int16_t duty = dxl_control_duty((uint16_t)(drive < 0 ? -drive : drive));
   motor_set_drive(drive < 0 ? (int16_t)-duty : duty);
+  return control.conditions;
 }
 
 bool control_led_on(void) { return led_on; }

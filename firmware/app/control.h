@@ -15,7 +15,9 @@
 
 #include "dxl_servo.h"
 
-void control_tick(dxl_servo_t *servo);
+/* Returns the conditions that hold after it (dxl_servo_conditions(servo): nothing else in the
+ * tick changes them), for the ready PING reply. */
+uint8_t control_tick(dxl_servo_t *servo);
 
 /* The LED as the control wants it after the last tick: register 25 (LED), or the alarm blink
  * while an alarm whose bit is set in Alarm LED holds and for 2 s after (POLICY.md "Alarms").

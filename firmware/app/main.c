@@ -382,13 +382,13 @@ static void service_tick(void) {
     adc_slot = (uint8_t)((adc_slot + 1u) % ADC_SEQUENCE_LENGTH);
     adc_start(adc_sequence[adc_slot]);
   }
-  control_tick(&servo);
+  const uint8_t conditions = control_tick(&servo);
   __asm__ __volatile__("" ::: "memory"); /* the RX ISR may have armed meanwhile */
   control_tick_count++;
   update_led();
   /* The ready PING reply follows the conditions (anything else that changes it comes with a
    * packet or a reply, which rebuild it): rebuilt only when its error byte would change. */
-  if (dxl_servo_conditions(&servo) != response.bytes[DXL_STATUS_ERROR_OFFSET]) {
+  if (conditions != response.bytes[DXL_STATUS_ERROR_OFFSET]) {
     refresh_ping_reply();
   }
 }

@@ -31,6 +31,19 @@ uint8_t dxl_control_slope_shift(uint8_t slope) {
   return shift;
 }
 
+/* m x 255 / 1023 = m / 4 - 3 m / 4092, and 3 m / 4092 lies in [0, 0.75]: the floor is m >> 2,
+ * less one when the remainder's quarter ((m & 3) / 4) is below 3 m / 4092, i.e. when m & 3 is
+ * below the number of the thresholds 0, 341, 682 that m exceeds (exact for every m; a 16 x 16
+ * multiply and its 32-bit shift cost the AVR about 60 cycles a tick). */
+uint8_t dxl_control_duty(uint16_t magnitude) {
+  const uint8_t thresholds_passed = magnitude > 682u ? 3u : magnitude > 341u ? 2u : magnitude != 0u ? 1u : 0u;
+  uint8_t duty = (uint8_t)(magnitude >> 2);
+  if ((uint8_t)(magnitude & 3u) < thresholds_passed) {
+    duty--;
+  }
+  return duty;
+}
+
 int16_t dxl_control_compliance_drive(int16_t error_counts, uint8_t cw_margin, uint8_t ccw_margin, uint8_t cw_slope,
                                      uint8_t ccw_slope, uint16_t punch, uint16_t torque_limit) {
   const bool position_cw_of_setpoint = error_counts > 0;
@@ -135,7 +148,8 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
   }
   /* Alarms first, so a shutdown takes effect in this tick's drive. */
   servo->held_conditions = measured_conditions(table, sensors, c->overload_ms >= DXL_OVERLOAD_WINDOW_MS);
-  const uint8_t active_alarms = (uint8_t)(dxl_servo_conditions(servo) | dxl_servo_take_events(servo));
+  c->conditions = dxl_servo_conditions(servo);
+  const uint8_t active_alarms = (uint8_t)(c->conditions | dxl_servo_take_events(servo));
   if ((active_alarms & table[CT_ADDR_ALARM_SHUTDOWN]) != 0 && table[CT_ADDR_TORQUE_ENABLE] != 0) {
     table[CT_ADDR_TORQUE_ENABLE] = 0;
 #if DXL_PROFILE == DXL_PROFILE_AX12A

@@ -62,6 +62,7 @@ typedef struct {
   uint16_t blink_phase_ms;
   bool torque_was_enabled;
   bool started;
+  uint8_t conditions; /* dxl_servo_conditions() as the last tick saw them */
 } dxl_control_t;
 
 void dxl_control_init(dxl_control_t *control);
@@ -74,6 +75,10 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
 
 /* The effective compliance slope: the smallest power of two >= slope, as a shift (1..8). */
 uint8_t dxl_control_slope_shift(uint8_t slope);
+
+/* PWM duty (0..255) of a drive magnitude (0..DXL_DRIVE_MAX): floor(magnitude x 255 / 1023),
+ * without a multiply (see dxl_control.c). */
+uint8_t dxl_control_duty(uint16_t magnitude);
 
 /* Drive for a position error (counts, positive = position lies CW of the setpoint) under the
  * compliance law. */

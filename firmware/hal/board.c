@@ -14,7 +14,11 @@ uint8_t board_reset_flags __attribute__((section(".noinit")));
 void board_init(void) {
   PORTB &= (uint8_t)~_BV(LED_BIT);
   DDRB |= _BV(LED_BIT);
+  /* Idle mode, sleep enabled for good: SLEEP appears only in board_sleep_unless_woken() (the
+   * datasheet's set-SE-just-before advice guards against a stray SLEEP; there is none), which
+   * saves setting and clearing SE on every pass. */
   set_sleep_mode(SLEEP_MODE_IDLE);
+  sleep_enable();
 }
 
 void board_led_set(bool on) {
@@ -30,7 +34,6 @@ void board_watchdog_start(void) { wdt_enable(WDTO_250MS); }
 void board_watchdog_kick(void) { wdt_reset(); }
 
 void board_sleep_unless_woken(void) {
-  sleep_enable();
   cli();
   while (!(GPIOR0 & _BV(BOARD_WAKE_BIT))) {
     sei();
@@ -45,5 +48,4 @@ void board_sleep_unless_woken(void) {
     cli(); /* an ISR that left no work (a byte the sniff framed): sleep on */
   }
   sei();
-  sleep_disable();
 }

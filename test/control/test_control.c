@@ -45,6 +45,13 @@ static void run_ms(rig_t *r, unsigned ms) {
 static void write_u16(rig_t *r, uint8_t addr, uint16_t value) { ct_set_u16(r->servo.table, addr, value); }
 static uint16_t read_u16(rig_t *r, uint8_t addr) { return ct_get_u16(r->servo.table, addr); }
 
+static void duty_is_the_floored_share_of_255_for_every_drive(void **state) {
+  (void)state;
+  for (uint16_t drive = 0; drive <= DXL_DRIVE_MAX; drive++) {
+    assert_int_equal(dxl_control_duty(drive), drive * 255u / 1023u);
+  }
+}
+
 static void slope_acts_as_the_next_power_of_two(void **state) {
   (void)state;
   assert_int_equal(dxl_control_slope_shift(1), 1);
@@ -292,6 +299,7 @@ static void events_blink_the_led_when_their_bit_is_set(void **state) {
 
 int main(void) {
   const struct CMUnitTest tests[] = {
+      cmocka_unit_test(duty_is_the_floored_share_of_255_for_every_drive),
       cmocka_unit_test(slope_acts_as_the_next_power_of_two),
       cmocka_unit_test(no_drive_inside_the_margin_then_punch_then_rising_to_the_limit),
       cmocka_unit_test(cw_and_ccw_sides_use_their_own_margin_and_slope),
