@@ -26,10 +26,13 @@ void motor_set_drive(int16_t drive) {
   if (drive == applied_drive) {
     return;
   }
+  /* The timer runs only while the motor is driven: it starts when the drive leaves 0 (here
+   * drive != 0), before a duty is written (a compare value written to a stopped timer reaches
+   * no pin before the next start); from one drive to another it keeps running. */
+  if (applied_drive == 0) {
+    TCCR0B = TCCR0B_RUN;
+  }
   applied_drive = drive;
-  /* The timer runs only while the motor is driven; it starts before a duty is written (a
-   * compare value written to a stopped timer reaches no pin before the next start). */
-  TCCR0B = TCCR0B_RUN;
   /* The other side goes to 0 first: never both non-zero. */
   if (drive > 0) {
     OCR0B = 0;
