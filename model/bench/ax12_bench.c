@@ -179,18 +179,23 @@ static long firmware_counter(const servo_t *s, const char *symbol, unsigned byte
   return value;
 }
 
-static size_t sync_write_goals(uint8_t *out, unsigned servos, unsigned phase) {
+/* A SYNC_WRITE to every servo from address 30: Goal Position only (2 bytes each, the issue's
+ * client loop, LENGTH 94 for 30 servos), or Goal Position and Moving Speed 0 (4 bytes each,
+ * 158 bytes for 30: the longest packet of the sustained load). */
+static size_t sync_write_goals(uint8_t *out, unsigned servos, unsigned phase, bool with_speed) {
   uint8_t params[2 + 5 * 32];
   size_t n = 0;
   params[n++] = 30; /* Goal Position, Moving Speed */
-  params[n++] = 4;
+  params[n++] = with_speed ? 4 : 2;
   for (unsigned id = 1; id <= servos; id++) {
     const unsigned goal = (phase & 1) ? 300 + id * 10 : 700 - id * 10;
     params[n++] = (uint8_t)id;
     params[n++] = (uint8_t)(goal & 0xFF);
     params[n++] = (uint8_t)(goal >> 8);
-    params[n++] = 0;
-    params[n++] = 0;
+    if (with_speed) {
+      params[n++] = 0;
+      params[n++] = 0;
+    }
   }
   return packet(out, 0xFE, 0x83, params, n);
 }
@@ -212,7 +217,7 @@ static void sustained(unsigned servos, double seconds) {
   size_t bytes = 0;
   while (r.world->now < until) {
     if (r.master->tx_end <= r.world->now + US(200)) { /* keep the wire busy: no gap */
-      const size_t n = sync_write_goals(p, servos, packets / 200);
+      const size_t n = sync_write_goals(p, servos, packets / 200, true);
       master_send(r.master, p, n);
       packets++;
       bytes += n;
@@ -257,7 +262,7 @@ static unsigned client_loops(rig_t *r, unsigned servos, sim_cycles_t until) {
   unsigned loops = 0;
   uint8_t p[200];
   while (r->world->now < until) {
-    const size_t n = sync_write_goals(p, servos, loops / 50);
+    const size_t n = sync_write_goals(p, servos, loops / 50, false);
     master_send(r->master, p, n);
     for (unsigned id = 1; id <= servos; id++) {
       uint8_t q[8], params[2] = {36, 2};
@@ -295,7 +300,7 @@ static double awake_share_over(rig_t *r, sim_cycles_t span, bool bus_load) {
   unsigned packets = 0;
   while (r->world->now < t0 + span) {
     if (bus_load && r->master->tx_end <= r->world->now + US(200)) {
-      master_send(r->master, p, sync_write_goals(p, 30, packets++ / 200));
+      master_send(r->master, p, sync_write_goals(p, 30, packets++ / 200, true));
     }
     world_run_until(r->world, r->world->now + US(50));
   }
@@ -329,7 +334,8 @@ static void stack_depth(void) {
   exchange(&r, p, packet(p, 1, 0x04, reg, 3), 6);
   exchange(&r, p, packet(p, 1, 0x05, NULL, 0), 6);
   exchange(&r, p, packet(p, 1, 0x07, NULL, 0), 6);                  /* unknown instruction */
-  exchange(&r, p, sync_write_goals(p, 30, 0), 0);
+  exchange(&r, p, sync_write_goals(p, 30, 0, true), 0);  /* the finder's (LENGTH 154) */
+  exchange(&r, p, sync_write_goals(p, 30, 1, false), 0); /* held by the sniff (LENGTH 94) */
   uint8_t bad[] = {0xFF, 0xFF, 1, 2, 1, 0x00};                     /* bad checksum */
   exchange(&r, bad, sizeof bad, 6);
   exchange(&r, p, packet(p, 1, 0x06, NULL, 0), 6);                  /* RESET */

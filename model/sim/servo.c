@@ -204,17 +204,15 @@ void servo_destroy(servo_t *servo) {
  * cycle past it, and from there to the following timer within the same call).
  *
  * A running core executes a batch: avr_run_one() goes on from instruction to instruction
- * while avr->run_cycle_count cycles are left, the core runs and no interrupt is pending, and
- * simavr re-clamps run_cycle_count to the first cycle timer whenever one is registered or
- * cancelled (with avr->run_cycle_limit above any distance, SERVO_RUN_CYCLE_LIMIT). So a batch
- * ends at the first instruction boundary at or after the first cycle timer, which is where
- * an instruction-by-instruction loop would have processed it: the same cycles, fewer calls.
- * A batch also stops at `until` (the caller's horizon) should the horizon timer be gone (a
- * watchdog reset inside the call empties the pool, and sets the limit back to 1, so nothing
- * re-clamps past it). until = 0 runs one instruction (the busy-time probe looks at every
- * one). */
-#define SERVO_RUN_CYCLE_LIMIT ((avr_cycle_count_t)1u << 40)
-
+ * while avr->run_cycle_count cycles are left, the core runs and no interrupt is pending.
+ * step_core() sets the count to reach the first cycle timer or `until`, whichever comes
+ * first. An instruction that registers or cancels a cycle timer (a UDR0 read, an ADC start,
+ * WDR...) makes simavr re-clamp the count to min(run_cycle_limit, first timer - now); with
+ * run_cycle_limit at 1 (simavr's own value after avr_init and every reset) the batch then
+ * ends after that instruction, and the next step_core() bounds a new one. So a batch ends at
+ * the first instruction boundary at or after the first cycle timer or `until`, which is
+ * where an instruction-by-instruction loop would have stopped: the same cycles, fewer calls.
+ * until = 0 runs one instruction (single_step; the busy-time probe looks at every one). */
 static inline __attribute__((always_inline)) void step_core(avr_t *avr, sim_cycles_t until) {
   avr_flashaddr_t new_pc = avr->pc;
   if (avr->state == cpu_Running) {
@@ -334,14 +332,6 @@ sim_cycles_t servo_earliest_wake(const servo_t *servo, sim_cycles_t now) {
   return SIM_CYCLES_NEVER;
 }
 
-/* The horizon of a servo_run_until() call, as a cycle timer: no batch runs past it. */
-static avr_cycle_count_t horizon_reached(avr_t *avr, avr_cycle_count_t when, void *param) {
-  (void)avr;
-  (void)when;
-  ((servo_t *)param)->horizon_pending = false;
-  return 0;
-}
-
 void servo_run_until(servo_t *servo, sim_cycles_t t) {
   avr_t *avr = servo->avr;
   if (servo->halted || avr->cycle >= t) {
@@ -353,13 +343,11 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
     avr->cycle = t;
     return;
   }
-  avr->run_cycle_limit = SERVO_RUN_CYCLE_LIMIT; /* avr_reset() sets it back to 1 */
-  avr_cycle_timer_register(avr, t - avr->cycle, horizon_reached, servo);
-  servo->horizon_pending = true;
+  avr->run_cycle_limit = 1; /* a re-clamp ends the batch (step_core) */
   const sim_cycles_t until = servo->single_step || servo->probe_pc ? 0 : t;
   while (!servo->halted && avr->cycle < t) {
     if (avr->state == cpu_Sleeping) {
-      const avr_cycle_timer_slot_p next = avr->cycle_timers.timer; /* at t at the latest */
+      const avr_cycle_timer_slot_p next = avr->cycle_timers.timer;
       if (!next || next->when >= t) {
         servo->sleep_cycles += t - avr->cycle;
         avr->cycle = t;
@@ -381,10 +369,6 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
               avr->state == cpu_Done ? "sleep with interrupts off" : "crash", (unsigned long long)avr->cycle,
               (unsigned)avr->pc);
     }
-  }
-  if (servo->horizon_pending) { /* it slept to t, or a reset emptied the pool */
-    avr_cycle_timer_cancel(avr, horizon_reached, servo);
-    servo->horizon_pending = false;
   }
 }
 

@@ -85,7 +85,6 @@ typedef struct servo {
   /* Run instruction by instruction instead of in batches up to the next cycle timer
    * (servo_run_until): slower, the same cycles; the reference a test checks batches against. */
   bool single_step;
-  bool horizon_pending; /* servo_run_until()'s horizon timer is in the pool */
   /* Busy-time probe (servo_set_probe). */
   uint32_t probe_pc;      /* byte address of an ISR's entry; 0 = off */
   bool probe_inside;

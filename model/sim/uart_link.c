@@ -116,11 +116,40 @@ static void ucsra_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) 
 
 /* ---- receiver ---- */
 
+/* UDR0 and UCSR0A reads, in place of simavr 1.6's (avr_uart_read, avr_uart_status_read),
+ * with the same effect on what the firmware sees, for a fraction of the host work (they run
+ * for every byte every servo hears): simavr's also cancel a receive timer this link never
+ * starts (receive() fills the FIFO itself) and raise XON/XOFF IRQs nothing listens to.
+ * UDR0 pops the FIFO's head (0 with the receiver off or nothing received); the last byte
+ * taken clears RXC0, a byte still waiting keeps the interrupt raised (RXC is a level); DOR0
+ * clears once the FIFO has room. */
 static uint8_t udr_read(avr_t *avr, avr_io_addr_t addr, void *param) {
+  (void)addr;
   uart_link_t *link = param;
-  const uint8_t v = ((avr_io_read_t)link->udr_read.c)(avr, addr, link->udr_read.param);
-  if (!uart_fifo_isempty(&link->uart->input)) {
-    avr_raise_interrupt(avr, &link->uart->rxc); /* RXC is a level */
+  avr_uart_t *u = link->uart;
+  uint8_t v = 0;
+  if (avr_regbit_get(avr, u->rxen) && avr_regbit_get(avr, u->rxc.raised) && !uart_fifo_isempty(&u->input)) {
+    v = (uint8_t)uart_fifo_read(&u->input);
+  }
+  if (uart_fifo_isempty(&u->input)) {
+    clear_flag(avr, &u->rxc);
+  } else {
+    avr_raise_interrupt(avr, &u->rxc);
+  }
+  if (!uart_fifo_isfull(&u->input)) {
+    avr_regbit_clear(avr, u->dor);
+  }
+  return v;
+}
+
+/* UCSR0A: FE0 describes the byte at the FIFO's head, as on silicon. */
+static uint8_t ucsra_read(avr_t *avr, avr_io_addr_t addr, void *param) {
+  uart_link_t *link = param;
+  avr_uart_t *u = link->uart;
+  uint8_t v = avr->data[addr];
+  if (!uart_fifo_isempty(&u->input)) {
+    const uint8_t fe_mask = (uint8_t)(u->fe.mask << u->fe.bit);
+    v = (uart_fifo_read_at(&u->input, 0) & UART_INPUT_FE) ? (uint8_t)(v | fe_mask) : (uint8_t)(v & ~fe_mask);
   }
   return v;
 }
@@ -220,14 +249,18 @@ bool uart_link_attach(uart_link_t *link, avr_t *avr, bus_t *bus, const char *nam
   /* UDR0 write: taken over (simavr's pump would time bytes at 11 bits, from the write). */
   IO_SLOT(avr, u->r_udr).w.c = udr_write;
   IO_SLOT(avr, u->r_udr).w.param = link;
-  link->udr_read.c = (void *)IO_SLOT(avr, u->r_udr).r.c;
-  link->udr_read.param = IO_SLOT(avr, u->r_udr).r.param;
+  /* UDR0 and UCSR0A reads: taken over (udr_read, ucsra_read). */
   IO_SLOT(avr, u->r_udr).r.c = udr_read;
   IO_SLOT(avr, u->r_udr).r.param = link;
+  if (u->fe.reg != u->r_ucsra || !IO_SLOT(avr, u->r_ucsra).r.c) {
+    return false; /* not the simavr 1.6 layout this replaces */
+  }
+  IO_SLOT(avr, u->r_ucsra).r.c = ucsra_read;
+  IO_SLOT(avr, u->r_ucsra).r.param = link;
   hook_write(avr, u->r_ucsra, ucsra_write, link, &link->ucsra_write);
   hook_write(avr, u->r_ucsrb, ucsrb_write, link, &link->ucsrb_write);
   hook_write(avr, u->ubrrl.reg, ubrrl_write, link, &link->ubrrl_write);
-  if (!link->ucsra_write.c || !link->ucsrb_write.c || !link->ubrrl_write.c || !link->udr_read.c) {
+  if (!link->ucsra_write.c || !link->ucsrb_write.c || !link->ubrrl_write.c) {
     return false;
   }
   link->node = -1;

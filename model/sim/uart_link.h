@@ -53,7 +53,7 @@ typedef struct {
   bus_rx_t rx_queue[UART_LINK_RX_QUEUE];
   unsigned rx_head, rx_count;
   /* Chained simavr handlers. */
-  uart_link_hook_t udr_read, ucsra_write, ucsrb_write, ubrrl_write;
+  uart_link_hook_t ucsra_write, ucsrb_write, ubrrl_write;
   /* Statistics. */
   uint64_t tx_bytes;        /* started on the wire */
   uint64_t tx_undriven;     /* written while PD2 was low: never on the wire */
