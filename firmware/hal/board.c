@@ -33,19 +33,24 @@ void board_watchdog_start(void) { wdt_enable(WDTO_250MS); }
 
 void board_watchdog_kick(void) { wdt_reset(); }
 
+/* Per wake by an ISR that left no work (a byte skipped or framed by the RX ISR, the usual
+ * case on a busy bus): SBIS, RJMP, CLI, SBIC, SEI, SLEEP (8 cycles). The flag is tested
+ * with interrupts on first after a wake, so work found there leaves with the next byte's
+ * interrupt not delayed (docs/firmware.md "Simulator traps"); the CLI test closes the race
+ * with an ISR that sets it just before SLEEP. simavr 1.6 runs two instructions after SEI
+ * before a pending interrupt (silicon: one) and SLEEP with one pending does not sleep: the
+ * SBIS after SLEEP is that second instruction, and the interrupt is taken before the loop
+ * could reach the CLI. */
 void board_sleep_unless_woken(void) {
-  cli();
-  while (!(GPIOR0 & _BV(BOARD_WAKE_BIT))) {
-    sei();
-    sleep_cpu();
-    /* simavr 1.6 runs two instructions after SEI before a pending interrupt (silicon: one),
-     * and SLEEP with one pending does not sleep: without this NOP the CLI below could come
-     * first, and the loop would spin with the interrupt never taken. */
-    __asm__ __volatile__("nop");
-    if (GPIOR0 & _BV(BOARD_WAKE_BIT)) {
-      break; /* work: back with interrupts on, so the next byte's interrupt is not delayed */
-    }
-    cli(); /* an ISR that left no work (a byte the sniff framed): sleep on */
-  }
-  sei();
+  __asm__ __volatile__("1: cli\n\t"
+                       "sbic %[gpior0], %[wake]\n\t"
+                       "rjmp 2f\n\t"
+                       "sei\n\t"
+                       "sleep\n\t"
+                       "sbis %[gpior0], %[wake]\n\t"
+                       "rjmp 1b\n\t"
+                       "2: sei\n\t" /* after a wake with work: already on */
+                       ::[gpior0] "I"(_SFR_IO_ADDR(GPIOR0)),
+                       [wake] "I"(BOARD_WAKE_BIT)
+                       : "memory");
 }
