@@ -69,13 +69,15 @@ static uint8_t adc_slot;
 #define SNIFF_MAX_MS 3u
 static uint8_t sniff_age_ms;
 static uint8_t sniff_seen_head; /* uart_rx_head at the last tick */
-/* Another servo's packet the RX ISR skips (uart_skip_count) ends like any partial packet
- * when no byte came for more than DXL_PACKET_GAP_TIMEOUT_MS (POLICY.md "Framing and bus"). A
- * count that reads the same at consecutive ticks is taken for no byte (bytes that bring it
- * back to the same value within 1 ms every time for 100 ms could end a skip early: its rest
- * then reaches the finder, which frames nothing of it). */
-static uint8_t skip_seen;
-static uint8_t skip_age_ms;
+/* Another servo's packet the RX ISR skips (uart_skip_count), and a header the sniff frames
+ * without storing it (uart_sniff 1..UART_SNIFF_LENGTH, uart_rx.S), end like any partial
+ * packet when no byte came for more than DXL_PACKET_GAP_TIMEOUT_MS (POLICY.md "Framing and
+ * bus"): the skip stops, the header is dropped, as the finder drops what came before a gap.
+ * Progress is the skip count or the header state changing between ticks (bytes that bring it
+ * back to the same value within 1 ms every time for 100 ms could end either early: the rest
+ * then reaches the sniff or the finder, which frame nothing of it). */
+static uint8_t quiet_seen;
+static uint8_t quiet_age_ms;
 /* Control ticks run since power-up (wrapping): a host reads it by symbol to count missed ticks. */
 volatile uint16_t control_tick_count;
 static uint8_t boot_blink_ms; /* into the current phase */
@@ -263,6 +265,10 @@ static void service_rx(void) {
         }
         after_reply = 0;
         finder_dirty = false;
+        /* The reply may be DONE already (a control tick ran meanwhile), which service_reply()
+         * left alone while this was armed: another pass takes it at once, not at the next
+         * wake (the sniff would stay off until then). */
+        board_wake_set();
       } else {
         refresh_ping_reply(); /* nothing was sent; a prepared reply may have taken the buffer */
       }
@@ -353,7 +359,7 @@ static void service_tick(void) {
    * timeout could split it: its bytes go to the finder, which applies the gap rule. */
   const uint8_t head = uart_rx_head;
   const uint8_t sniff = uart_sniff;
-  if ((armed || (sniff != 0 && sniff < UART_SNIFF_ARMED)) && head == sniff_seen_head) {
+  if ((armed || (sniff > UART_SNIFF_LENGTH && sniff < UART_SNIFF_ARMED)) && head == sniff_seen_head) {
     if (++sniff_age_ms >= SNIFF_MAX_MS) {
       uart_sniff_stop_part_way();
       if (armed && uart_reply_disarm()) {
@@ -366,13 +372,20 @@ static void service_tick(void) {
     sniff_seen_head = head;
   }
   const uint8_t skip = uart_skip_count;
-  if (skip != 0 && skip == skip_seen) {
-    if (++skip_age_ms > DXL_PACKET_GAP_TIMEOUT_MS) {
-      uart_skip_count = 0; /* a byte just now would have come after the gap: not the packet's */
+  const uint8_t quiet = skip != 0 ? skip : (sniff <= UART_SNIFF_LENGTH ? sniff : 0u);
+  if (quiet != 0 && quiet == quiet_seen) {
+    if (++quiet_age_ms > DXL_PACKET_GAP_TIMEOUT_MS) {
+      /* A byte just now would have come after the gap: not the packet's. */
+      uart_skip_count = 0;
+      ATOMIC_BLOCK(ATOMIC_FORCEON) {
+        if (uart_sniff == sniff) {
+          uart_sniff = 0; /* (a skip: it is 0 already) */
+        }
+      }
     }
   } else {
-    skip_seen = skip;
-    skip_age_ms = 0;
+    quiet_seen = quiet;
+    quiet_age_ms = 0;
   }
   if (!armed && dxl_finder_poll(&finder, now_ms)) {
     finder_dirty = true; /* rescan what came before the gap */

@@ -168,7 +168,7 @@ void uart_sniff_start(uint8_t id, uint8_t mask) {
 }
 
 void uart_sniff_stop_part_way(void) {
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+  ATOMIC_BLOCK(ATOMIC_FORCEON) { /* main loop only: interrupts on */
     if (uart_sniff < UART_SNIFF_ARMED) {
       uart_sniff = UART_SNIFF_OFF;
     }

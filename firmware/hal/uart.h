@@ -68,11 +68,12 @@
 #define UART_FATE_ARM 0
 #define UART_FATE_DROP 1
 #define UART_FATE_HAND_OVER 2
-/* Bytes the sniff holds, bounded without a per-byte test: a header of at most
- * UART_SNIFF_MAX_HEADER_HELD bytes (FF ... FF ID), then LENGTH + 1 bytes with LENGTH at most
- * UART_SNIFF_MAX_LENGTH (a SYNC_WRITE of 2 bytes to 30 servos is 94). The rest of the ring
- * is the main loop's margin once a sniff ends part-way (24 bytes: 240 us at 1 Mbps). */
-#define UART_SNIFF_MAX_HEADER_HELD 7
+/* Bytes the sniff holds, bounded without a per-byte test: the header FF FF ID (put into the
+ * ring at the LENGTH of a packet the servo keeps; before that the sniff holds it in its state
+ * alone), then LENGTH + 1 bytes with LENGTH at most UART_SNIFF_MAX_LENGTH (a SYNC_WRITE of 2
+ * bytes to 30 servos is 94). The rest of the ring is the main loop's margin once a sniff ends
+ * part-way (24 bytes: 240 us at 1 Mbps). */
+#define UART_SNIFF_MAX_HEADER_HELD 3
 #define UART_SNIFF_MAX_LENGTH 96
 #define UART_SNIFF_MAX_HELD (UART_SNIFF_MAX_HEADER_HELD + 1 + UART_SNIFF_MAX_LENGTH)
 /* Protocol values the assembly needs (dxl_protocol.h / dxl_servo.h spell them with a u
@@ -141,20 +142,25 @@ static inline bool uart_rx_available(void) { return uart_rx_head != uart_rx_tail
 static inline uint8_t uart_reply_state(void) { return uart_tx_state; }
 
 /* The sniff (uart_rx.S). uart_sniff_start: with the ready PING reply loaded, state IDLE and
- * the ring and the finder empty, the RX ISR frames the packets that come:
- *   - one for id with an instruction whose bit is set in mask (dxl_servo_stream_mask): the
- *     reply is armed at its last byte before the checksum (uart_sniff = UART_SNIFF_ARMED;
- *     uart_sniff_end = the ring position just after the checksum). A PING answers with the
- *     loaded reply; anything else streams its first UART_STREAM_HEADER_BYTES and waits for
- *     uart_reply_publish();
- *   - another servo's (not broadcast, LENGTH 2..UART_SNIFF_MAX_LENGTH): at its LENGTH the
- *     header is dropped from the ring, the RX ISR skips the LENGTH bytes that follow
+ * the ring and the finder empty, the RX ISR frames the packets that come. It reads the header
+ * FF FF ID LENGTH as the finder would (a byte that cannot be a header's is dropped, further
+ * FFs before the ID are still the header, LENGTH < 2 is no packet) without storing it, in
+ * uart_sniff 0..UART_SNIFF_LENGTH; at the LENGTH:
+ *   - another servo's (not broadcast): the RX ISR skips the LENGTH bytes that follow
  *     (uart_skip_count counts them down), and the sniff goes on with the next header;
- *   - anything else: OFF, the held bytes are the finder's.
+ *   - this servo's or broadcast: FF FF ID and the LENGTH go into the ring, and
+ *       - one for id with an instruction whose bit is set in mask (dxl_servo_stream_mask):
+ *         the reply is armed at its last byte before the checksum (uart_sniff =
+ *         UART_SNIFF_ARMED; uart_sniff_end = the ring position just after the checksum). A
+ *         PING answers with the loaded reply; anything else streams its first
+ *         UART_STREAM_HEADER_BYTES and waits for uart_reply_publish();
+ *       - anything else (LENGTH over UART_SNIFF_MAX_LENGTH at once, else at its checksum):
+ *         OFF, the held bytes are the finder's.
  * While the sniff runs (uart_sniff < UART_SNIFF_ARMED) the main loop leaves the ring alone
- * and the bytes do not wake it. Does nothing when a byte came first.
- * uart_sniff_stop_part_way: ends a running sniff (not one that has armed); the held bytes
- * are then the finder's. */
+ * and the bytes do not wake it. Does nothing when a byte came first. A header that stops
+ * part-way is the main loop's to drop after the gap (main.c), as the finder would.
+ * uart_sniff_stop_part_way: ends a running sniff past its LENGTH (not one that has armed);
+ * the held bytes are then the finder's. */
 extern volatile uint8_t uart_sniff;
 extern volatile uint8_t uart_sniff_end;
 void uart_sniff_start(uint8_t id, uint8_t mask);

@@ -15,9 +15,10 @@
  * - SKIP (uart_skip_count > 0, tested second): a byte of another servo's packet, after its
  *   LENGTH: read, counted down and forgotten, in about 30 cycles with the interrupt's own.
  * - the sniff (uart_sniff 0..UART_SNIFF_CHECKSUM, started by the main loop with the ring and
- *   the finder empty): frames and sums FF FF ID LENGTH INSTRUCTION PARAMS CHECKSUM as they
- *   arrive and holds them in the ring without waking the main loop. Its fate, decided at the
- *   ID and the instruction (UART_FATE_*):
+ *   the finder empty; uart.h): reads the header FF FF ID LENGTH in r24/r25 alone, holding it
+ *   in its state (HEADER below, about 45 cycles a byte with the interrupt's own), then frames
+ *   and sums INSTRUCTION PARAMS CHECKSUM as they arrive and holds them in the ring without
+ *   waking the main loop. Its fate, decided at the ID and the instruction (UART_FATE_*):
  *     ARM        this servo's, instruction in uart_sniff_mask (and a WRITE's start address
  *                past the EEPROM area): at the last byte before the checksum the reply is
  *                ARMED as above, so neither the main loop's latency nor its long passes (the
@@ -25,13 +26,14 @@
  *                other packet streams the loaded reply's header FF FF ID, and the UDRE ISR
  *                waits for the main loop to publish the rest;
  *     DROP       another servo's (POLICY.md "Framing and bus": parsed to its end by its
- *                LENGTH and ignored): at its LENGTH the ring is emptied again, the LENGTH
- *                bytes still to come are skipped (SKIP above) and the sniff waits for the
- *                next packet's header;
+ *                LENGTH and ignored): at its LENGTH the LENGTH bytes still to come are
+ *                skipped (SKIP above) and the sniff waits for the next packet's header; its
+ *                header never reaches the ring;
  *     HAND_OVER  broadcast, or this servo's and not armed: at its checksum the sniff ends
  *                and the main loop takes the whole packet in one pass.
- *   Any byte that is no packet (a bad header, LENGTH out of range) ends the sniff
- *   (UART_SNIFF_OFF), and so does the checksum of a HAND_OVER packet.
+ *   A packet the servo keeps gets its header FF FF ID into the ring at its LENGTH. A LENGTH
+ *   over UART_SNIFF_MAX_LENGTH ends the sniff there (UART_SNIFF_OFF), and so does the
+ *   checksum of a HAND_OVER packet.
  * - OFF (the finder's): append to the ring (or count it dropped when full), note the tick,
  *   wake the main loop.
  * A frame error / data overrun flagged for the byte is counted in every state.
@@ -48,17 +50,17 @@
 
 /* Whole Timer1 ticks (8 cycles) by which each path reads TCNT1 after the reference moment
  * (uart.h: 6 cycles after the vector is entered), counted from the code below and rounded
- * down, so a late reply is never early: the finder's byte 25 cycles (its path tests the armed
- * state and the skip count first), an armed checksum that differs 27, the byte that ends the
- * sniff (from its checksum state) 53. */
+ * down, so a late reply is never early: the finder's byte 30 cycles (its path tests the armed
+ * state, the skip count and the header states first), an armed checksum that differs 27, the
+ * byte that ends the sniff (from its checksum state) 53. */
 #define OFF_READ_LATE_TICKS 3
 #define MISMATCH_READ_LATE_TICKS 3
 #define HAND_OVER_READ_LATE_TICKS 6
 
   .section .text.uart_rx_isr, "ax", @progbits
-/* (Placed before the vector for the branch range.) The sniff: r24 = uart_sniff (its state
- * before this byte, 0..UART_SNIFF_CHECKSUM), r25 = the byte; Z saved. Each state either
- * moves on (and holds the byte), or ends the sniff. */
+/* (Placed before the vector for the branch range.) The sniff past the header: r24 =
+ * uart_sniff (its state before this byte, UART_SNIFF_INSTRUCTION..UART_SNIFF_CHECKSUM), r25
+ * = the byte; Z saved. Each state either moves on (and holds the byte), or ends the sniff. */
 /* The checksum of a packet framed and not armed (HAND_OVER): the whole packet is the
  * finder's. */
 .Lsn_checksum:
@@ -68,88 +70,43 @@
   ldi r24, HAND_OVER_READ_LATE_TICKS
   rjmp .Lstamp
 
-.Lsn_header:
-  cpi r25, DXL_HEADER_BYTE_ASM
-  brne .Lsniff_off
-  rjmp .Lsn_next
-.Lsn_id:
-  cpi r25, DXL_HEADER_BYTE_ASM       /* a further FF: still the header, held up to a bound */
-  breq .Lsn_extra_ff
-  ldi r30, UART_FATE_HAND_OVER       /* broadcast: acted on by every servo, the finder's */
-  cpi r25, DXL_ID_BROADCAST_ASM
-  breq 1f
-  ldi r30, UART_FATE_ARM
-  lds r31, uart_sniff_id
-  cpse r25, r31
-  ldi r30, UART_FATE_DROP            /* another servo's */
-1:
-  sts uart_sniff_fate, r30
-  sts uart_sniff_sum, r25
-  rjmp .Lsn_next
-.Lsn_extra_ff:
-  lds r30, uart_rx_head
-  lds r31, uart_rx_tail
-  sub r30, r31
-  cpi r30, UART_SNIFF_MAX_HEADER_HELD
-  brlo .Lsn_hold
-  rjmp .Lsniff_off
-
-.Lsn_length:
-  cpi r25, 2                         /* LENGTH < 2 is no packet */
-  brlo .Lsniff_off
-  cpi r25, UART_SNIFF_MAX_LENGTH + 1 /* longer: the finder's, so the ring cannot fill */
-  brsh .Lsniff_off
-  lds r30, uart_sniff_fate
-  cpi r30, UART_FATE_DROP
-  breq .Lsn_skip
-  lds r30, uart_sniff_sum
-  add r30, r25
-  sts uart_sniff_sum, r30
-  mov r30, r25                       /* bytes before the checksum: instruction + parameters */
-  dec r30
-  sts uart_sniff_count, r30
-  rjmp .Lsn_next
-/* Another servo's: the LENGTH bytes that follow are skipped; the ring, which holds this
- * packet's header and nothing else (the sniff starts with an empty ring, the main loop leaves
- * it alone while the sniff runs, and each dropped packet empties it again), is emptied; the
- * sniff waits for the next header. The main loop is not woken. */
-.Lsn_skip:
-  sts uart_skip_count, r25
-  lds r30, uart_rx_tail
-  sts uart_rx_head, r30
-  ldi r24, 0
-  sts uart_sniff, r24
-  rjmp .Lexit
-
-.Lsniff:
-  cpi r24, UART_SNIFF_BODY           /* the most frequent first; r24 is the next state too */
-  breq .Lsn_sum
-  cpi r24, UART_SNIFF_ID
-  brlo .Lsn_header                   /* 0, 1: FF FF */
-  breq .Lsn_id
-  cpi r24, UART_SNIFF_INSTRUCTION
-  brlo .Lsn_length
-  breq .Lsn_instruction
-  cpi r24, UART_SNIFF_FIRST_PARAM
-  breq .Lsn_first_param
-  rjmp .Lsn_checksum
-.Lsn_next:
-  inc r24
-.Lsn_set:
-  sts uart_sniff, r24
-.Lsn_hold:                           /* held: the LENGTH bound keeps the ring from filling */
-  lds r24, uart_rx_head
-.Lstore_at_head:                     /* r24 = uart_rx_head, the ring has room */
-  mov r30, r24
+/* Appends r24 to the ring (it has room: the sniff holds at most UART_SNIFF_MAX_HELD
+ * bytes); Z clobbered. The head is published before the store: the main loop leaves the
+ * ring alone while the sniff runs, and this runs with interrupts off. */
+.Lring_put:
+  lds r31, uart_rx_head
+  mov r30, r31
+  inc r31
+  sts uart_rx_head, r31
   andi r30, UART_RX_RING_MASK
   ldi r31, 0
   subi r30, lo8(-(uart_rx_ring))
   sbci r31, hi8(-(uart_rx_ring))
-  st Z, r25
-  inc r24
-  sts uart_rx_head, r24              /* publish the byte after it is stored */
-  rjmp .Lexit
+  st Z, r24
+  ret
 
+/* The LENGTH of a packet this servo keeps (ARM, HAND_OVER; LENGTH >= 2): the header the
+ * sniff framed without storing goes into the ring first, as FF FF ID (further FFs before
+ * the ID are a header to the finder too, which frames the same packet without them). */
+.Lsn_length:
+  ldi r24, DXL_HEADER_BYTE_ASM
+  rcall .Lring_put
+  rcall .Lring_put
+  lds r24, uart_sniff_sum            /* the ID */
+  rcall .Lring_put
+  cpi r25, UART_SNIFF_MAX_LENGTH + 1 /* longer: the finder's, so the ring cannot fill */
+  brsh .Lsniff_off
+  sts uart_sniff_count, r25          /* .Lsn_sum counts this byte down: LENGTH - 1 are left
+                                        before the checksum (instruction and parameters) */
+  ldi r24, UART_SNIFF_INSTRUCTION
+  rjmp .Lsn_sum
+
+.Lsniff:
+  cpi r24, UART_SNIFF_BODY           /* the most frequent first; r24 is the next state too */
+  breq .Lsn_sum
+  brsh .Lsn_checksum
+  cpi r24, UART_SNIFF_FIRST_PARAM
+  breq .Lsn_first_param
 .Lsn_instruction:
   ldi r24, UART_SNIFF_BODY
   lds r30, uart_sniff_fate
@@ -216,7 +173,31 @@
   sts uart_tx_state, r30
   ldi r24, UART_SNIFF_ARMED
   sbi _SFR_IO_ADDR(GPIOR0), BOARD_WAKE_BIT /* the main loop prepares the reply */
-  rjmp .Lsn_set
+.Lsn_set:
+  sts uart_sniff, r24
+.Lsn_hold:                           /* held: the LENGTH bound keeps the ring from filling */
+  lds r24, uart_rx_head
+.Lstore_at_head:                     /* r24 = uart_rx_head, the ring has room */
+  mov r30, r24
+  andi r30, UART_RX_RING_MASK
+  ldi r31, 0
+  subi r30, lo8(-(uart_rx_ring))
+  sbci r31, hi8(-(uart_rx_ring))
+  st Z, r25
+  inc r24
+  sts uart_rx_head, r24              /* publish the byte after it is stored */
+  rjmp .Lexit
+
+
+/* A byte the USART flagged (frame error / data overrun): counted, saturating at 255.
+ * Clobbers r24. */
+.Lcount_line_error:
+  lds r24, uart_rx_line_error_count
+  inc r24
+  breq 1f
+  sts uart_rx_line_error_count, r24
+1:
+  ret
 
 /* SKIP: r24 = the count after this byte. */
 .Lskip:
@@ -224,16 +205,58 @@
   lds r24, _SFR_MEM_ADDR(UCSR0A)
   andi r24, _BV(FE0) | _BV(DOR0)
   breq .Lskip_read
-  lds r24, uart_rx_line_error_count
-  inc r24
-  breq .Lskip_read                   /* saturate at 255 */
-  sts uart_rx_line_error_count, r24
+  rcall .Lcount_line_error
 .Lskip_read:
   lds r24, _SFR_MEM_ADDR(UDR0)       /* read and forgotten */
   in r24, _SFR_IO_ADDR(GPIOR2)
   out _SFR_IO_ADDR(SREG), r24
   in r24, _SFR_IO_ADDR(GPIOR1)
   reti
+
+/* HEADER: the sniff frames FF FF ID LENGTH without storing them (r24 = the state, r25 = the
+ * byte; only r25 saved), as the finder would read them: a byte that cannot start or go on
+ * with a header is dropped and the sniff waits for the next FF; a further FF before the ID
+ * is still the header. At the LENGTH, another servo's packet is skipped from there on, a
+ * LENGTH < 2 is no packet, and a packet this servo keeps gets its header into the ring
+ * (.Lsn_length). */
+.Lh_ff:                              /* 0, 1: FF FF */
+  cpi r25, DXL_HEADER_BYTE_ASM
+  brne .Lh_restart
+  inc r24
+  rjmp .Lh_set
+.Lh_id:
+  cpi r25, DXL_HEADER_BYTE_ASM       /* (r24 = this state: unchanged) */
+  breq .Lh_set
+  sts uart_sniff_sum, r25
+  cpi r25, DXL_ID_BROADCAST_ASM
+  ldi r24, UART_FATE_HAND_OVER       /* broadcast: acted on by every servo, the finder's */
+  breq 1f
+  lds r24, uart_sniff_id
+  cp r24, r25
+  ldi r24, UART_FATE_ARM
+  breq 1f
+  ldi r24, UART_FATE_DROP            /* another servo's */
+1:
+  sts uart_sniff_fate, r24
+  ldi r24, UART_SNIFF_LENGTH
+  rjmp .Lh_set
+.Lh_length:
+  cpi r25, 2
+  brlo .Lh_restart
+  lds r24, uart_sniff_fate
+  cpi r24, UART_FATE_DROP
+  brne .Lh_keep
+  sts uart_skip_count, r25           /* the main loop is not woken */
+.Lh_restart:
+  ldi r24, 0
+.Lh_set:
+  sts uart_sniff, r24
+  rjmp .Lh_exit
+.Lh_keep:
+  push r30
+  push r31
+  rjmp .Lsn_length
+
 
   .global USART_RX_vect
 USART_RX_vect:
@@ -247,14 +270,19 @@ USART_RX_vect:
   subi r24, 1
   brcc .Lskip
   push r25
-  push r30
-  push r31
   lds r24, _SFR_MEM_ADDR(UCSR0A)     /* FE0/DOR0 describe the byte in UDR0: read it first */
   lds r25, _SFR_MEM_ADDR(UDR0)
   andi r24, _BV(FE0) | _BV(DOR0)
   brne .Lline_error
 .Lclassify:
   lds r24, uart_sniff
+  cpi r24, UART_SNIFF_ID             /* the header: r24 and r25 only (HEADER below) */
+  breq .Lh_id
+  brlo .Lh_ff
+  cpi r24, UART_SNIFF_LENGTH
+  breq .Lh_length
+  push r30
+  push r31
   cpi r24, UART_SNIFF_ARMED
   brsh 1f
   rjmp .Lsniff                       /* a sniff is under way (reply IDLE) */
@@ -284,6 +312,7 @@ USART_RX_vect:
 .Lexit:
   pop r31
   pop r30
+.Lh_exit:                            /* the header's (only r25 pushed) */
   pop r25
   in r24, _SFR_IO_ADDR(GPIOR2)
   out _SFR_IO_ADDR(SREG), r24
@@ -291,10 +320,7 @@ USART_RX_vect:
   reti
 
 .Lline_error:
-  lds r24, uart_rx_line_error_count
-  inc r24
-  breq .Lclassify                    /* saturate at 255 */
-  sts uart_rx_line_error_count, r24
+  rcall .Lcount_line_error
   rjmp .Lclassify
 
 /* ARMED: this byte is the checksum of the packet whose reply is loaded. Z is pushed only
@@ -323,10 +349,7 @@ USART_RX_vect:
   rjmp .Lsn_hold                     /* the ring has room: it held the packet's other bytes */
 
 .Larmed_line_error:
-  lds r24, uart_rx_line_error_count
-  inc r24
-  breq .Larmed_compare               /* saturate at 255 */
-  sts uart_rx_line_error_count, r24
+  rcall .Lcount_line_error
   rjmp .Larmed_compare
 
 .Lmismatch:
