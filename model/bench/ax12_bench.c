@@ -280,6 +280,17 @@ static void speed(unsigned servos, double seconds) {
   double w0 = wall_s();
   world_run_until(r.world, r.world->now + span);
   const double idle_speed = seconds / (wall_s() - w0);
+  /* Torque on, as the SDK loop (scripts/bench.py) does: the servos hold and move. */
+  uint8_t torque_on[2 + 2 * 32];
+  size_t n = 0;
+  torque_on[n++] = 24;
+  torque_on[n++] = 1;
+  for (unsigned id = 1; id <= servos; id++) {
+    torque_on[n++] = (uint8_t)id;
+    torque_on[n++] = 1;
+  }
+  uint8_t p[80];
+  master_send(r.master, p, packet(p, 0xFE, 0x83, torque_on, n));
   w0 = wall_s();
   const sim_cycles_t t0 = r.world->now;
   const unsigned loops = client_loops(&r, servos, t0 + span);

@@ -174,6 +174,11 @@ servo_t *servo_create(const servo_config_t *config, bus_t *bus, char *err, size_
        io = io->next) {
     if (io->kind && strcmp(io->kind, "timer") == 0) {
       servo->timers[servo->timer_count++] = io;
+      if (((avr_timer_t *)io)->name == '0' && !quiet_timer_attach(&servo->quiet_timer0, avr, (avr_timer_t *)io)) {
+        snprintf(err, err_len, "MCU '%s': Timer0 is not where the emulator expects it", config->mcu);
+        servo_destroy(servo);
+        return NULL;
+      }
     }
   }
   servo->board.on_reset = servo_was_reset;
@@ -293,20 +298,6 @@ void servo_step_plant(servo_t *servo, sim_cycles_t now, bool force) {
   servo_show_plant(servo);
 }
 
-/* True when none of the timer module's interrupts is enabled: its events cannot wake the core. */
-static bool timer_quiet(const avr_t *avr, const avr_timer_t *p) {
-  avr_t *a = (avr_t *)avr;
-  if (avr_regbit_get(a, p->overflow.enable) || avr_regbit_get(a, p->icr.enable)) {
-    return false;
-  }
-  for (int i = 0; i < AVR_TIMER_COMP_COUNT; i++) {
-    if (avr_regbit_get(a, p->comp[i].interrupt.enable)) {
-      return false;
-    }
-  }
-  return true;
-}
-
 sim_cycles_t servo_earliest_wake(const servo_t *servo, sim_cycles_t now) {
   const avr_t *avr = servo->avr;
   if (servo->halted) {
@@ -321,7 +312,7 @@ sim_cycles_t servo_earliest_wake(const servo_t *servo, sim_cycles_t now) {
     bool skip = false;
     for (unsigned i = 0; i < servo->timer_count; i++) {
       if (slot->param == servo->timers[i]) {
-        skip = timer_quiet(avr, servo->timers[i]);
+        skip = quiet_timer_interrupts_off((avr_t *)avr, servo->timers[i]);
         break;
       }
     }

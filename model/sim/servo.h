@@ -24,6 +24,7 @@
 #include "bus.h"
 #include "eeprom_store.h"
 #include "plant.h"
+#include "quiet_timer.h"
 #include "sim_time.h"
 
 struct avr_t;
@@ -78,6 +79,9 @@ typedef struct servo {
   /* The MCU's timer modules (simavr avr_timer_t), for servo_earliest_wake(). */
   void *timers[4];
   unsigned timer_count;
+  /* Timer0 (the H-bridge PWM): its events are not simulated while no interrupt of it is
+   * enabled (quiet_timer.h). */
+  quiet_timer_t quiet_timer0;
   /* Owned by the world (NULL for a servo on its own): set when an EEPROM byte is written, so
    * the world polls persistence only then; lowered to the plant's next due time. */
   bool *persist_due;
