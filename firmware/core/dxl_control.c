@@ -44,6 +44,11 @@ uint8_t dxl_control_duty(uint16_t magnitude) {
   return duty;
 }
 
+/* The slope acts as power = 2^shift (dxl_control_slope_shift). Past margin + power the law
+ * asks for at least the limit: Torque Limit, no arithmetic (the usual case while moving).
+ * Below, (limit - step) x excess / power with excess < power <= 256: excess x (256 / power)
+ * is a byte, so the product / 256 is two 8 x 8 multiplies (the span's bytes), exactly,
+ * without a 32-bit multiply and shift (about 70 cycles on the AVR). */
 int16_t dxl_control_compliance_drive(int16_t error_counts, uint8_t cw_margin, uint8_t ccw_margin, uint8_t cw_slope,
                                      uint8_t ccw_slope, uint16_t punch, uint16_t torque_limit) {
   const bool position_cw_of_setpoint = error_counts > 0;
@@ -53,11 +58,24 @@ int16_t dxl_control_compliance_drive(int16_t error_counts, uint8_t cw_margin, ui
     return 0;
   }
   const uint16_t limit = torque_limit > DXL_DRIVE_MAX ? DXL_DRIVE_MAX : torque_limit;
-  const uint16_t step = punch < limit ? punch : limit;
-  const uint8_t shift = dxl_control_slope_shift(position_cw_of_setpoint ? cw_slope : ccw_slope);
-  uint32_t drive = step + (((uint32_t)(limit - step) * (uint32_t)(magnitude - margin)) >> shift);
-  if (drive > limit) {
-    drive = limit;
+  const uint8_t slope = position_cw_of_setpoint ? cw_slope : ccw_slope;
+  uint8_t power_less_one = (1u << SLOPE_SHIFT_MIN) - 1u; /* power - 1: 1, 3, .. 255 */
+  uint8_t scale = 1u << (8u - SLOPE_SHIFT_MIN);          /* 256 / power */
+  while (scale > 1u && (uint8_t)(power_less_one + 1u) < slope) {
+    power_less_one = (uint8_t)(power_less_one * 2u + 1u);
+    scale >>= 1;
+  }
+  const uint16_t excess = magnitude - margin;
+  uint16_t drive = limit;
+  if (excess <= power_less_one) {
+    const uint16_t step = punch < limit ? punch : limit;
+    const uint16_t span = limit - step;
+    const uint8_t scaled = (uint8_t)((uint8_t)excess * scale);
+    const uint8_t span_low = (uint8_t)span;
+    const uint8_t span_high = (uint8_t)(span >> 8);
+    const uint16_t low_product = (uint16_t)(span_low * scaled);
+    const uint16_t high_product = (uint16_t)(span_high * scaled);
+    drive = (uint16_t)(step + (uint8_t)(low_product >> 8) + high_product);
   }
   return position_cw_of_setpoint ? (int16_t)drive : (int16_t)-(int16_t)drive;
 }

@@ -81,6 +81,42 @@ static void no_drive_inside_the_margin_then_punch_then_rising_to_the_limit(void 
   assert_int_equal(dxl_control_compliance_drive(5, 0, 0, 32, 32, 1000, 300), 300);
 }
 
+/* The law as docs/control.md states it (step + (limit - step) x excess / 2^shift, capped at
+ * the limit), in plain 64-bit arithmetic, against the firmware's for every error, slope and
+ * a spread of margins, punches and limits. */
+static void compliance_drive_matches_the_plain_formula_everywhere(void **state) {
+  (void)state;
+  static const uint8_t margins[] = {0, 1, 4, 255};
+  static const uint16_t punches[] = {0, 32, 100, 1023};
+  static const uint16_t limits[] = {0, 1, 300, 900, 1023, 1200};
+  for (size_t m = 0; m < sizeof margins; m++) {
+    for (size_t p = 0; p < sizeof punches / sizeof punches[0]; p++) {
+      for (size_t l = 0; l < sizeof limits / sizeof limits[0]; l++) {
+        for (unsigned slope = 0; slope <= 255; slope++) {
+          const uint8_t shift = dxl_control_slope_shift((uint8_t)slope);
+          for (int e = -1023; e <= 1023; e++) {
+            const uint64_t magnitude = (uint64_t)(e < 0 ? -e : e);
+            int64_t expected = 0;
+            if (magnitude > margins[m]) {
+              const uint64_t limit = limits[l] > DXL_DRIVE_MAX ? DXL_DRIVE_MAX : limits[l];
+              const uint64_t step = punches[p] < limit ? punches[p] : limit;
+              uint64_t drive = step + (((limit - step) * (magnitude - margins[m])) >> shift);
+              drive = drive > limit ? limit : drive;
+              expected = e > 0 ? (int64_t)drive : -(int64_t)drive;
+            }
+            const int16_t got = dxl_control_compliance_drive((int16_t)e, margins[m], margins[m], (uint8_t)slope,
+                                                             (uint8_t)slope, punches[p], limits[l]);
+            if (got != expected) {
+              fail_msg("error %d margin %u slope %u punch %u limit %u: %d, expected %lld", e, margins[m], slope,
+                       punches[p], limits[l], got, (long long)expected);
+            }
+          }
+        }
+      }
+    }
+  }
+}
+
 static void cw_and_ccw_sides_use_their_own_margin_and_slope(void **state) {
   (void)state;
   /* Position CW of the setpoint (positive error): CW margin 2; CCW side margin 10. */
@@ -302,6 +338,7 @@ int main(void) {
       cmocka_unit_test(duty_is_the_floored_share_of_255_for_every_drive),
       cmocka_unit_test(slope_acts_as_the_next_power_of_two),
       cmocka_unit_test(no_drive_inside_the_margin_then_punch_then_rising_to_the_limit),
+      cmocka_unit_test(compliance_drive_matches_the_plain_formula_everywhere),
       cmocka_unit_test(cw_and_ccw_sides_use_their_own_margin_and_slope),
       cmocka_unit_test(slopes_17_to_32_give_identical_drive),
       cmocka_unit_test(a_goal_write_moves_the_output_and_moving_clears_on_arrival),
