@@ -18,7 +18,11 @@ static uint8_t bytes_left;
  * EEPROM is ready; its job is to wake the main loop after a write. */
 
 const uint8_t *nvm_load(void) {
-  eeprom_read_block(image, (const void *)IMAGE_EEPROM_ADDR, DXL_IMAGE_BYTES);
+  /* Byte by byte: eeprom_read_byte() is linked anyway (nvm_service), eeprom_read_block() would
+   * add 32 B of flash. */
+  for (uint8_t offset = 0; offset < DXL_IMAGE_BYTES; offset++) {
+    image[offset] = eeprom_read_byte((const uint8_t *)(uintptr_t)(IMAGE_EEPROM_ADDR + offset));
+  }
   return dxl_image_is_valid(image) ? &image[DXL_IMAGE_OFS_TABLE] : NULL;
 }
 
