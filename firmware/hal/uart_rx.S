@@ -57,6 +57,15 @@
 #define MISMATCH_READ_LATE_TICKS 3
 #define HAND_OVER_READ_LATE_TICKS 6
 
+/* Z = &uart_rx_ring[index & UART_RX_RING_MASK] (index: a register; Z may be it). */
+.macro RING_SLOT_Z index
+  mov r30, \index
+  andi r30, UART_RX_RING_MASK
+  ldi r31, 0
+  subi r30, lo8(-(uart_rx_ring))
+  sbci r31, hi8(-(uart_rx_ring))
+.endm
+
   .section .text.uart_rx_isr, "ax", @progbits
 /* (Placed before the vector for the branch range.) The sniff past the header: r24 =
  * uart_sniff (its state before this byte, UART_SNIFF_INSTRUCTION..UART_SNIFF_CHECKSUM), r25
@@ -75,13 +84,10 @@
  * ring alone while the sniff runs, and this runs with interrupts off. */
 .Lring_put:
   lds r31, uart_rx_head
-  mov r30, r31
   inc r31
   sts uart_rx_head, r31
-  andi r30, UART_RX_RING_MASK
-  ldi r31, 0
-  subi r30, lo8(-(uart_rx_ring))
-  sbci r31, hi8(-(uart_rx_ring))
+  dec r31
+  RING_SLOT_Z r31
   st Z, r24
   ret
 
@@ -178,11 +184,7 @@
 .Lsn_hold:                           /* held: the LENGTH bound keeps the ring from filling */
   lds r24, uart_rx_head
 .Lstore_at_head:                     /* r24 = uart_rx_head, the ring has room */
-  mov r30, r24
-  andi r30, UART_RX_RING_MASK
-  ldi r31, 0
-  subi r30, lo8(-(uart_rx_ring))
-  sbci r31, hi8(-(uart_rx_ring))
+  RING_SLOT_Z r24
   st Z, r25
   inc r24
   sts uart_rx_head, r24              /* publish the byte after it is stored */

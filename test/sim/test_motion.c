@@ -511,25 +511,33 @@ static void script_run(script_world_t *w, bool single_step, bool every_timer0_ev
   }
 }
 
+/* Two runs of the script heard the same bytes at the same cycles and ended at the same time;
+ * each servo at the same cycle, PC and sleep count. */
+static void expect_same_wire_and_clocks(const script_world_t *a, const script_world_t *b) {
+  assert_true(a->logged > 100u);
+  assert_int_equal(a->logged, b->logged);
+  for (size_t i = 0; i < a->logged; i++) {
+    assert_int_equal(a->log[i].start, b->log[i].start);
+    assert_int_equal(a->log[i].end, b->log[i].end);
+    assert_int_equal(a->log[i].value, b->log[i].value);
+    assert_int_equal(a->log[i].flags, b->log[i].flags);
+  }
+  assert_int_equal(a->h.world->now, b->h.world->now);
+  for (unsigned i = 0; i < 3; i++) {
+    assert_int_equal(a->servo[i]->avr->cycle, b->servo[i]->avr->cycle);
+    assert_int_equal(a->servo[i]->avr->pc, b->servo[i]->avr->pc);
+    assert_int_equal(a->servo[i]->sleep_cycles, b->servo[i]->sleep_cycles);
+  }
+}
+
 static void test_batched_runs_match_single_steps(void **state) {
   (void)state;
   static script_world_t batched, stepped;
   script_run(&batched, false, false);
   script_run(&stepped, true, false);
-  assert_true(batched.logged > 100u);
-  assert_int_equal(batched.logged, stepped.logged);
-  for (size_t i = 0; i < batched.logged; i++) {
-    assert_int_equal(batched.log[i].start, stepped.log[i].start);
-    assert_int_equal(batched.log[i].end, stepped.log[i].end);
-    assert_int_equal(batched.log[i].value, stepped.log[i].value);
-    assert_int_equal(batched.log[i].flags, stepped.log[i].flags);
-  }
-  assert_int_equal(batched.h.world->now, stepped.h.world->now);
+  expect_same_wire_and_clocks(&batched, &stepped);
   for (unsigned i = 0; i < 3; i++) {
     const avr_t *a = batched.servo[i]->avr, *b = stepped.servo[i]->avr;
-    assert_int_equal(a->cycle, b->cycle);
-    assert_int_equal(a->pc, b->pc);
-    assert_int_equal(batched.servo[i]->sleep_cycles, stepped.servo[i]->sleep_cycles);
     assert_memory_equal(a->data, b->data, (size_t)a->ramend + 1u); /* registers, I/O, RAM */
     assert_true(ax12_plant_angle_deg(&batched.servo[i]->plant) == ax12_plant_angle_deg(&stepped.servo[i]->plant));
   }
@@ -553,21 +561,10 @@ static void test_quiet_timer0_changes_nothing_the_firmware_does(void **state) {
   static script_world_t quiet, every;
   script_run(&quiet, false, false);
   script_run(&every, false, true);
-  assert_true(quiet.logged > 100u);
-  assert_int_equal(quiet.logged, every.logged);
-  for (size_t i = 0; i < quiet.logged; i++) {
-    assert_int_equal(quiet.log[i].start, every.log[i].start);
-    assert_int_equal(quiet.log[i].end, every.log[i].end);
-    assert_int_equal(quiet.log[i].value, every.log[i].value);
-    assert_int_equal(quiet.log[i].flags, every.log[i].flags);
-  }
-  assert_int_equal(quiet.h.world->now, every.h.world->now);
+  expect_same_wire_and_clocks(&quiet, &every);
   unsigned long long cancelled = 0;
   for (unsigned i = 0; i < 3; i++) {
     const avr_t *a = quiet.servo[i]->avr, *b = every.servo[i]->avr;
-    assert_int_equal(a->cycle, b->cycle);
-    assert_int_equal(a->pc, b->pc);
-    assert_int_equal(quiet.servo[i]->sleep_cycles, every.servo[i]->sleep_cycles);
     const size_t size = (size_t)a->ramend + 1u;
     uint8_t *x = malloc(size), *y = malloc(size);
     assert_non_null(x);
