@@ -24,4 +24,8 @@
 #define DXL_FLASH
 #endif
 
+/* A function the AVR build must keep as one copy (link-time inlining would duplicate it into
+ * each caller, where flash is what runs out). */
+#define DXL_ONE_COPY __attribute__((noinline))
+
 #endif

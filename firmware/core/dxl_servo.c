@@ -109,7 +109,7 @@ static void clear_registered(dxl_servo_t *s) {
   s->table[CT_ADDR_REGISTERED_INSTRUCTION] = 0;
 }
 
-void dxl_servo_power_up(dxl_servo_t *servo, const uint8_t *eeprom_area, uint16_t present_position) {
+DXL_ONE_COPY void dxl_servo_power_up(dxl_servo_t *servo, const uint8_t *eeprom_area, uint16_t present_position) {
   memset(servo, 0, sizeof *servo);
   ct_load_factory_eeprom(servo->table);
   if (eeprom_area != NULL) {
