@@ -107,7 +107,6 @@ static void *reader_main(void *arg) {
     pty->chunk_count++;
     pthread_mutex_unlock(&pty->lock);
     const char wake = 1;
-    __atomic_store_n(&pty->wake_written, true, __ATOMIC_SEQ_CST);
     (void)!write(pty->wake_pipe[1], &wake, 1); /* a full pipe is awake already */
   }
   return NULL;
@@ -342,23 +341,13 @@ static bool take_client(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx
   return moved;
 }
 
-/* A client that changes its baud and only listens: its bytes are framed at the new one
- * within this much wall time (one that writes brings its baud with the chunk). */
-#define PTY_BRIDGE_BAUD_POLL_US 1000.0
-
 bool pty_bridge_pump(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx, double wall_us), void *ctx) {
-  /* Two system calls saved on most pumps (one every 100 simulated us). */
-  if (__atomic_exchange_n(&pty->wake_written, false, __ATOMIC_SEQ_CST)) {
-    char drain[64];
-    while (read(pty->wake_pipe[0], drain, sizeof(drain)) > 0) {
-    }
+  char drain[64];
+  while (read(pty->wake_pipe[0], drain, sizeof(drain)) > 0) {
   }
+  refresh_baud(pty);
   bool moved = write_due(pty);
   const double wall = pacing_wall_us();
-  if (wall - pty->baud_checked_wall_us >= PTY_BRIDGE_BAUD_POLL_US) {
-    refresh_baud(pty);
-    pty->baud_checked_wall_us = wall;
-  }
   pthread_mutex_lock(&pty->lock);
   moved |= take_client(pty, sim_of_wall, ctx);
   pthread_mutex_unlock(&pty->lock);

@@ -65,8 +65,6 @@ typedef struct {
   bool reader_started;
   int stop_pipe[2];  /* the reader polls [0]; close() writes [1] */
   int wake_pipe[2];  /* the reader writes [1] after queueing a chunk; poll [0] to wait */
-  bool wake_written; /* atomic: [0] may hold bytes to drain (the pump drains only then) */
-  double baud_checked_wall_us; /* the pump reads the client's baud (TCGETS2) this often */
   pthread_mutex_t lock; /* guards the inbox and stopping */
   pthread_cond_t space; /* the simulation freed room in the inbox */
   bool stopping;
