@@ -16,17 +16,31 @@
  * tick: ~2.6 counts between readings at 63 rpm, the fastest a 12 V supply allows): the pot
  * wrapped past its ends (wheel mode); the speed holds. Keeps target - speed_x8 in 16 bits. */
 #define SPEED_MAX_DELTA_COUNTS 6
-#define SLOPE_SHIFT_MIN 1u /* slope acts as 2.. */
-#define SLOPE_SHIFT_MAX 8u /* ..256 */
+#define SLOPE_SHIFT_MIN 1u /* slope acts as 2..256 (scale 128..1) */
 
 void dxl_control_init(dxl_control_t *control) {
   *control = (dxl_control_t){0};
 }
 
+/* The effective slope, the smallest power of two >= slope (2..256), as power - 1 (1..255:
+ * a byte) and 256 / power in *scale. */
+static uint8_t slope_power_less_one(uint8_t slope, uint8_t *scale) {
+  uint8_t power_less_one = (1u << SLOPE_SHIFT_MIN) - 1u;
+  uint8_t scale_now = 1u << (8u - SLOPE_SHIFT_MIN);
+  while (scale_now > 1u && (uint8_t)(power_less_one + 1u) < slope) {
+    power_less_one = (uint8_t)(power_less_one * 2u + 1u);
+    scale_now >>= 1;
+  }
+  *scale = scale_now;
+  return power_less_one;
+}
+
 uint8_t dxl_control_slope_shift(uint8_t slope) {
-  uint8_t shift = SLOPE_SHIFT_MIN;
-  for (uint16_t power = 1u << SLOPE_SHIFT_MIN; shift < SLOPE_SHIFT_MAX && power < slope; power <<= 1) {
-    shift++; /* power = 1 << shift, kept rather than recomputed (AVR shifts loop per bit) */
+  uint8_t scale;
+  uint8_t power_less_one = slope_power_less_one(slope, &scale);
+  uint8_t shift = 0;
+  for (; power_less_one != 0; power_less_one >>= 1) {
+    shift++;
   }
   return shift;
 }
@@ -58,13 +72,8 @@ int16_t dxl_control_compliance_drive(int16_t error_counts, uint8_t cw_margin, ui
     return 0;
   }
   const uint16_t limit = torque_limit > DXL_DRIVE_MAX ? DXL_DRIVE_MAX : torque_limit;
-  const uint8_t slope = position_cw_of_setpoint ? cw_slope : ccw_slope;
-  uint8_t power_less_one = (1u << SLOPE_SHIFT_MIN) - 1u; /* power - 1: 1, 3, .. 255 */
-  uint8_t scale = 1u << (8u - SLOPE_SHIFT_MIN);          /* 256 / power */
-  while (scale > 1u && (uint8_t)(power_less_one + 1u) < slope) {
-    power_less_one = (uint8_t)(power_less_one * 2u + 1u);
-    scale >>= 1;
-  }
+  uint8_t scale;
+  const uint8_t power_less_one = slope_power_less_one(position_cw_of_setpoint ? cw_slope : ccw_slope, &scale);
   const uint16_t excess = magnitude - margin;
   uint16_t drive = limit;
   if (excess <= power_less_one) {
