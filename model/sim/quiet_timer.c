@@ -7,8 +7,6 @@
 #include <sim_avr.h>
 #include <sim_io.h>
 
-#define IO_SLOT(avr, addr) ((avr)->io[AVR_DATA_TO_IO(addr)])
-
 bool quiet_timer_interrupts_off(struct avr_t *avr, const struct avr_timer_t *timer) {
   if (avr_regbit_get(avr, timer->overflow.enable) || avr_regbit_get(avr, timer->icr.enable)) {
     return false;
@@ -36,14 +34,6 @@ static void cancel_events(quiet_timer_t *qt) {
   }
 }
 
-static void call_original(quiet_timer_t *qt, unsigned i, avr_io_addr_t addr, uint8_t v) {
-  if (qt->original_c[i]) {
-    ((avr_io_write_t)qt->original_c[i])(qt->avr, addr, v, qt->original_param[i]);
-  } else {
-    qt->avr->data[addr] = v;
-  }
-}
-
 /* simavr schedules the timer's events from its control registers: a stop and a start
  * (TCCRnB = 0, then its value) make it schedule them afresh from now. */
 static void restart(quiet_timer_t *qt) {
@@ -51,8 +41,8 @@ static void restart(quiet_timer_t *qt) {
   for (unsigned i = 0; i < qt->count; i++) {
     if (qt->addr[i] == tccrb) {
       const uint8_t value = qt->avr->data[tccrb];
-      call_original(qt, i, tccrb, 0);
-      call_original(qt, i, tccrb, value);
+      io_hook_chain(&qt->replaced[i], qt->avr, tccrb, 0);
+      io_hook_chain(&qt->replaced[i], qt->avr, tccrb, value);
     }
   }
 }
@@ -70,11 +60,10 @@ static void settle(quiet_timer_t *qt) {
 }
 
 static void on_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) {
-  (void)avr;
   quiet_timer_t *qt = param;
   for (unsigned i = 0; i < qt->count; i++) {
     if (qt->addr[i] == addr) {
-      call_original(qt, i, addr, v);
+      io_hook_chain(&qt->replaced[i], avr, addr, v);
       break;
     }
   }
@@ -92,10 +81,7 @@ static void hook(quiet_timer_t *qt, avr_io_addr_t addr) {
   }
   const unsigned i = qt->count++;
   qt->addr[i] = addr;
-  qt->original_c[i] = (void *)IO_SLOT(qt->avr, addr).w.c;
-  qt->original_param[i] = IO_SLOT(qt->avr, addr).w.param;
-  IO_SLOT(qt->avr, addr).w.c = on_write;
-  IO_SLOT(qt->avr, addr).w.param = qt;
+  io_hook_write(qt->avr, addr, on_write, qt, &qt->replaced[i]);
 }
 
 bool quiet_timer_attach(quiet_timer_t *qt, struct avr_t *avr, struct avr_timer_t *timer) {

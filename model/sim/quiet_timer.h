@@ -21,6 +21,8 @@
 
 #include <stdbool.h>
 
+#include "io_hook.h"
+
 struct avr_t;
 struct avr_timer_t;
 
@@ -33,8 +35,7 @@ typedef struct {
   bool quiet;   /* no interrupt of the timer has been enabled since power-up */
   unsigned count;
   unsigned short addr[QUIET_TIMER_REGS];
-  void *original_c[QUIET_TIMER_REGS];
-  void *original_param[QUIET_TIMER_REGS];
+  io_write_hook_t replaced[QUIET_TIMER_REGS];
   unsigned long long cancelled; /* cycle timers cancelled (statistics) */
 } quiet_timer_t;
 

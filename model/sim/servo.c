@@ -15,8 +15,6 @@
 
 #include "sim_log.h"
 
-#define IO_SLOT(avr, addr) ((avr)->io[AVR_DATA_TO_IO(addr)])
-
 static void sleep_nothing(avr_t *avr, avr_cycle_count_t how_long) {
   (void)avr;
   (void)how_long; /* the world paces itself (world.c); simavr only jumps the clock */
@@ -64,7 +62,7 @@ static void eecr_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) {
     avr_regbit_set(avr, ee->eepe);
     return;
   }
-  ((avr_io_write_t)servo->eecr_hook_c)(avr, addr, v, servo->eecr_hook_param);
+  io_hook_chain(&servo->eecr_replaced, avr, addr, v);
   if (starts_write) {
     servo->eeprom_writes++;
     servo->dirty = true; /* persisted at the end of this world step */
@@ -159,10 +157,7 @@ servo_t *servo_create(const servo_config_t *config, bus_t *bus, char *err, size_
   memcpy(servo->eeprom, image, servo->eeprom_size);
   free(image);
 
-  servo->eecr_hook_c = (void *)IO_SLOT(avr, ee->r_eecr).w.c;
-  servo->eecr_hook_param = IO_SLOT(avr, ee->r_eecr).w.param;
-  IO_SLOT(avr, ee->r_eecr).w.c = eecr_write;
-  IO_SLOT(avr, ee->r_eecr).w.param = servo;
+  io_hook_write(avr, ee->r_eecr, eecr_write, servo, &servo->eecr_replaced);
 
   if (!board_attach(&servo->board, avr, bus, servo->name)) {
     snprintf(err, err_len, "MCU '%s' lacks a part the board needs (USART0, ports B/D) or the bus is full",

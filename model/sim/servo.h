@@ -61,7 +61,7 @@ typedef struct servo {
   bool dirty;        /* written since the last persist */
   bool eeprom_busy;  /* a byte write is under way (EEPE held) */
   sim_cycles_t last_write_at;
-  void *eecr_hook_c, *eecr_hook_param;
+  io_write_hook_t eecr_replaced; /* simavr's EECR handler, chained to */
   uint64_t eeprom_writes;
   uint64_t eeprom_writes_while_busy;
   uint64_t persists;

@@ -9,7 +9,6 @@
 
 DEFINE_FIFO(uint16_t, uart_fifo);
 
-#define IO_SLOT(avr, addr) ((avr)->io[AVR_DATA_TO_IO(addr)])
 
 static avr_uart_t *find_uart0(avr_t *avr) {
   for (avr_io_t *io = avr->io_port; io; io = io->next) {
@@ -94,7 +93,7 @@ static void udr_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) {
 
 static void ucsrb_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) {
   uart_link_t *link = param;
-  ((avr_io_write_t)link->ucsrb_write.c)(avr, addr, v, link->ucsrb_write.param);
+  io_hook_chain(&link->ucsrb_write, avr, addr, v);
   /* simavr raises UDRE when UDRIE is set and its own (unused) TX pump is idle. */
   if (link->buffer_full) {
     clear_flag(avr, &link->uart->udrc);
@@ -103,14 +102,14 @@ static void ucsrb_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) 
 
 static void ubrrl_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) {
   uart_link_t *link = param;
-  ((avr_io_write_t)link->ubrrl_write.c)(avr, addr, v, link->ubrrl_write.param);
+  io_hook_chain(&link->ubrrl_write, avr, addr, v);
   link->ubrr = (uint16_t)((avr->data[link->uart->ubrrl.reg] | (avr->data[link->uart->ubrrh.reg] << 8)) & 0x0FFFu);
   update_baud(link);
 }
 
 static void ucsra_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) {
   uart_link_t *link = param;
-  ((avr_io_write_t)link->ucsra_write.c)(avr, addr, v, link->ucsra_write.param);
+  io_hook_chain(&link->ucsra_write, avr, addr, v);
   update_baud(link); /* U2X0 */
 }
 
@@ -227,13 +226,6 @@ static void node_deliver(void *ctx, const bus_rx_t *rx) {
 
 /* ---- set-up ---- */
 
-static void hook_write(avr_t *avr, avr_io_addr_t addr, avr_io_write_t fn, uart_link_t *link, uart_link_hook_t *saved) {
-  saved->c = (void *)IO_SLOT(avr, addr).w.c;
-  saved->param = IO_SLOT(avr, addr).w.param;
-  IO_SLOT(avr, addr).w.c = fn;
-  IO_SLOT(avr, addr).w.param = link;
-}
-
 bool uart_link_attach(uart_link_t *link, avr_t *avr, bus_t *bus, const char *name) {
   memset(link, 0, sizeof(*link));
   link->avr = avr;
@@ -247,19 +239,16 @@ bool uart_link_attach(uart_link_t *link, avr_t *avr, bus_t *bus, const char *nam
   avr_ioctl(avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
 
   /* UDR0 write: taken over (simavr's pump would time bytes at 11 bits, from the write). */
-  IO_SLOT(avr, u->r_udr).w.c = udr_write;
-  IO_SLOT(avr, u->r_udr).w.param = link;
+  io_take_write(avr, u->r_udr, udr_write, link);
   /* UDR0 and UCSR0A reads: taken over (udr_read, ucsra_read). */
-  IO_SLOT(avr, u->r_udr).r.c = udr_read;
-  IO_SLOT(avr, u->r_udr).r.param = link;
-  if (u->fe.reg != u->r_ucsra || !IO_SLOT(avr, u->r_ucsra).r.c) {
+  io_take_read(avr, u->r_udr, udr_read, link);
+  if (u->fe.reg != u->r_ucsra || !io_has_read(avr, u->r_ucsra)) {
     return false; /* not the simavr 1.6 layout this replaces */
   }
-  IO_SLOT(avr, u->r_ucsra).r.c = ucsra_read;
-  IO_SLOT(avr, u->r_ucsra).r.param = link;
-  hook_write(avr, u->r_ucsra, ucsra_write, link, &link->ucsra_write);
-  hook_write(avr, u->r_ucsrb, ucsrb_write, link, &link->ucsrb_write);
-  hook_write(avr, u->ubrrl.reg, ubrrl_write, link, &link->ubrrl_write);
+  io_take_read(avr, u->r_ucsra, ucsra_read, link);
+  io_hook_write(avr, u->r_ucsra, ucsra_write, link, &link->ucsra_write);
+  io_hook_write(avr, u->r_ucsrb, ucsrb_write, link, &link->ucsrb_write);
+  io_hook_write(avr, u->ubrrl.reg, ubrrl_write, link, &link->ubrrl_write);
   if (!link->ucsra_write.c || !link->ucsrb_write.c || !link->ubrrl_write.c) {
     return false;
   }

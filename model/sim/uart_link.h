@@ -24,17 +24,13 @@
 #include <stdint.h>
 
 #include "bus.h"
+#include "io_hook.h"
 
 struct avr_t;
 struct avr_uart_t;
 
 #define UART_LINK_RX_QUEUE 256u
 #define UART_LINK_RX_FIFO_DEPTH 3u
-
-typedef struct {
-  void *c;
-  void *param;
-} uart_link_hook_t;
 
 typedef struct {
   struct avr_t *avr;
@@ -53,7 +49,7 @@ typedef struct {
   bus_rx_t rx_queue[UART_LINK_RX_QUEUE];
   unsigned rx_head, rx_count;
   /* Chained simavr handlers. */
-  uart_link_hook_t ucsra_write, ucsrb_write, ubrrl_write;
+  io_write_hook_t ucsra_write, ucsrb_write, ubrrl_write;
   /* Statistics. */
   uint64_t tx_bytes;        /* started on the wire */
   uint64_t tx_undriven;     /* written while PD2 was low: never on the wire */
