@@ -350,10 +350,10 @@ static void update_led(void) {
 }
 
 static void service_tick(void) {
-  uint16_t now_ms;
-  if (!timebase_poll(&now_ms)) {
+  if (timebase_poll() == 0) {
     return;
   }
+  const uint16_t now_ms = timebase_ms();
   /* A packet the RX ISR holds (a sniff part-way, or an armed reply whose checksum does not
    * come) is given up after SNIFF_MAX_MS without a byte, long before the finder's gap
    * timeout could split it: its bytes go to the finder, which applies the gap rule. */

@@ -29,13 +29,10 @@ uint16_t timebase_ms(void) {
   return (uint16_t)(((uint16_t)high << 8) | low);
 }
 
-bool timebase_poll(uint16_t *now_ms) {
+uint8_t timebase_poll(void) {
   const uint16_t now = timebase_ms();
-  *now_ms = now;
-  if (now == ms_polled) {
-    return false;
-  }
+  const uint16_t elapsed = (uint16_t)(now - ms_polled);
   ms_polled = now;
-  return true;
+  return elapsed > UINT8_MAX ? UINT8_MAX : (uint8_t)elapsed;
 }
 

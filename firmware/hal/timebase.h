@@ -27,9 +27,8 @@ extern volatile uint16_t timebase_ms_count;
 /* The millisecond count, read without disabling interrupts. Main loop. */
 uint16_t timebase_ms(void);
 
-/* True when the millisecond count changed since the last call; *now_ms = the count read.
- * Main loop. */
-bool timebase_poll(uint16_t *now_ms);
+/* Control periods elapsed since the last call (0 if none; saturates at 255). Main loop. */
+uint8_t timebase_poll(void);
 
 #endif /* __ASSEMBLER__ */
 #endif
