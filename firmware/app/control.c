@@ -6,7 +6,6 @@
 #include "dxl_table.h"
 #include "motor.h"
 
-
 static dxl_control_t control;
 static bool led_on;
 static uint8_t voltage_dv;

@@ -42,7 +42,6 @@
 #define BOOT_BLINK_MS 100u
 #define BOOT_BLINK_PHASES 4u
 
-
 /* ADC conversions, one per control tick: the pot every other tick. */
 static const DXL_FLASH uint8_t adc_sequence[] = {ADC_CH_POT, ADC_CH_SUPPLY, ADC_CH_POT, ADC_CH_TEMP};
 #define ADC_SEQUENCE_LENGTH (sizeof adc_sequence / sizeof adc_sequence[0])

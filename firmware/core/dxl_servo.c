@@ -78,8 +78,10 @@ static bool angle_limit_after_write(const dxl_servo_t *s, uint8_t start, const u
   return goal < cw_limit || goal > ccw_limit;
 }
 
-/* angle_limit_after_write() with nothing written, in a few table reads: it runs twice a
- * control tick (the alarms and the ready PING reply). */
+/* angle_limit_after_write() with nothing written, in a few table reads: it runs every control
+ * tick. A copy on purpose: calling angle_limit_after_write(s, 0, NULL, 0) instead, or sharing
+ * a helper with it, measured 36 and 24 B more flash on the ATmega88 (and the call is slower).
+ * In wheel mode the flag alone tells: apply_write() sets it afresh whenever wheel mode begins. */
 static bool angle_limit_now(const dxl_servo_t *s) {
   const uint16_t cw_limit = ct_get_u16(s->table, CT_ADDR_CW_ANGLE_LIMIT);
   const uint16_t ccw_limit = ct_get_u16(s->table, CT_ADDR_CCW_ANGLE_LIMIT);

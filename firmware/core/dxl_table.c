@@ -40,7 +40,6 @@ static const DXL_FLASH uint8_t item_index_by_addr[CT_SIZE] = {
 
 uint8_t ct_item_index_at(uint8_t addr) { return item_index_by_addr[addr]; }
 
-
 static void load_defaults(uint8_t *table, uint8_t first_addr, uint8_t end_addr, bool read_only_only) {
   for (uint8_t i = 0; i < CT_ITEM_COUNT; i++) {
     const ct_desc_t d = ct_items[i];

@@ -35,4 +35,3 @@ uint8_t timebase_poll(void) {
   ms_polled = now;
   return elapsed > UINT8_MAX ? UINT8_MAX : (uint8_t)elapsed;
 }
-

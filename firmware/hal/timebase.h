@@ -16,7 +16,6 @@
 
 #ifndef __ASSEMBLER__
 
-#include <stdbool.h>
 #include <stdint.h>
 
 void timebase_init(void);

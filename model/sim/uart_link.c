@@ -9,7 +9,6 @@
 
 DEFINE_FIFO(uint16_t, uart_fifo);
 
-
 static avr_uart_t *find_uart0(avr_t *avr) {
   for (avr_io_t *io = avr->io_port; io; io = io->next) {
     if (io->kind && strcmp(io->kind, "uart") == 0 && io->irq_ioctl_get == (uint32_t)AVR_IOCTL_UART_GETIRQ('0')) {
