@@ -10,6 +10,8 @@
  *   ax12-bench stack ELF                   deepest stack after a workload of every instruction
  *   ax12-bench awake ELF                   share of cycles the MCU is awake: idle, holding
  *                                          a position (control loop alone), full bus load
+ *   ax12-bench profile ELF SERVOS SECONDS  awake cycles by instruction address, holding and
+ *                                          under the client loop (scripts/firmware_profile)
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -273,14 +275,9 @@ static unsigned client_loops(rig_t *r, unsigned servos, sim_cycles_t until) {
   return loops;
 }
 
-static void speed(unsigned servos, double seconds) {
-  rig_t r;
-  rig_open(&r, servos);
-  const sim_cycles_t span = (sim_cycles_t)(seconds * 1e6 * SIM_CYCLES_PER_US);
-  double w0 = wall_s();
-  world_run_until(r.world, r.world->now + span);
-  const double idle_speed = seconds / (wall_s() - w0);
-  /* Torque on, as the SDK loop (scripts/bench.py) does: the servos hold and move. */
+/* Torque on in servos 1..servos (one SYNC_WRITE), as the SDK loop (scripts/bench.py) does:
+ * the servos hold and move. */
+static void torque_on_all(rig_t *r, unsigned servos) {
   uint8_t torque_on[2 + 2 * 32];
   size_t n = 0;
   torque_on[n++] = 24;
@@ -290,7 +287,17 @@ static void speed(unsigned servos, double seconds) {
     torque_on[n++] = 1;
   }
   uint8_t p[80];
-  master_send(r.master, p, packet(p, 0xFE, 0x83, torque_on, n));
+  master_send(r->master, p, packet(p, 0xFE, 0x83, torque_on, n));
+}
+
+static void speed(unsigned servos, double seconds) {
+  rig_t r;
+  rig_open(&r, servos);
+  const sim_cycles_t span = (sim_cycles_t)(seconds * 1e6 * SIM_CYCLES_PER_US);
+  double w0 = wall_s();
+  world_run_until(r.world, r.world->now + span);
+  const double idle_speed = seconds / (wall_s() - w0);
+  torque_on_all(&r, servos);
   w0 = wall_s();
   const sim_cycles_t t0 = r.world->now;
   const unsigned loops = client_loops(&r, servos, t0 + span);
@@ -299,6 +306,65 @@ static void speed(unsigned servos, double seconds) {
   printf("{\"servos\": %u, \"idle_sim_s_per_wall_s\": %.3f, \"loaded_sim_s_per_wall_s\": %.3f, "
          "\"client_loops_per_sim_s\": %.1f}\n",
          servos, idle_speed, loaded_sim / loaded_wall, loops / loaded_sim);
+  rig_close(&r);
+}
+
+/* Prints `"name": {"0xADDR": cycles, ...}` (byte addresses) and clears the counts. */
+static void print_cycle_profile(const char *name, uint64_t *word_cycles, size_t words) {
+  printf("\"%s\": {", name);
+  const char *sep = "";
+  for (size_t w = 0; w < words; w++) {
+    if (word_cycles[w]) {
+      printf("%s\"0x%04zx\": %llu", sep, w * 2u, (unsigned long long)word_cycles[w]);
+      sep = ", ";
+      word_cycles[w] = 0;
+    }
+  }
+  printf("}");
+}
+
+/* Cycles every servo has been awake so far, summed: its clock less its time asleep. */
+static uint64_t awake_cycles_of_all(const rig_t *r) {
+  uint64_t awake = 0;
+  for (size_t i = 0; i < r->world->servo_count; i++) {
+    const servo_t *s = r->world->servos[i];
+    awake += s->avr->cycle - s->sleep_cycles;
+  }
+  return awake;
+}
+
+/* Awake cycles by instruction, summed over the servos (scripts/firmware_profile names them):
+ * `seconds` holding a position with torque on and no traffic, then `seconds` of the client
+ * loop of `speed`. One JSON object. */
+static void cycle_profile(unsigned servos, double seconds) {
+  rig_t r;
+  rig_open(&r, servos);
+  (void)world_set_threads(r.world, 1); /* the servos share one array */
+  const sim_cycles_t span = (sim_cycles_t)(seconds * 1e6 * SIM_CYCLES_PER_US);
+  torque_on_all(&r, servos);
+  world_run_until(r.world, r.world->now + MS(100));
+  const size_t words = (r.world->servos[0]->avr->flashend + 1u) / 2u;
+  uint64_t *word_cycles = calloc(words, sizeof *word_cycles);
+  if (!word_cycles) die("out of memory", NULL);
+  for (size_t i = 0; i < r.world->servo_count; i++) {
+    r.world->servos[i]->pc_cycles = word_cycles;
+    r.world->servos[i]->pc_cycles_words = words;
+  }
+  printf("{\"servos\": %u, \"seconds\": %.3f, ", servos, seconds);
+  uint64_t awake = awake_cycles_of_all(&r);
+  world_run_until(r.world, r.world->now + span);
+  printf("\"holding_awake_cycles\": %llu, ", (unsigned long long)(awake_cycles_of_all(&r) - awake));
+  print_cycle_profile("holding", word_cycles, words);
+  awake = awake_cycles_of_all(&r);
+  const unsigned loops = client_loops(&r, servos, r.world->now + span);
+  printf(", \"loops\": %u, \"loop_awake_cycles\": %llu, ", loops,
+         (unsigned long long)(awake_cycles_of_all(&r) - awake));
+  print_cycle_profile("loop", word_cycles, words);
+  printf("}\n");
+  for (size_t i = 0; i < r.world->servo_count; i++) {
+    r.world->servos[i]->pc_cycles = NULL;
+  }
+  free(word_cycles);
   rig_close(&r);
 }
 
@@ -364,7 +430,7 @@ static void stack_depth(void) {
 
 int main(int argc, char **argv) {
   if (argc < 3) {
-    fprintf(stderr, "usage: ax12-bench turnaround|rdt|sustained|speed ELF [args]\n");
+    fprintf(stderr, "usage: ax12-bench turnaround|rdt|sustained|speed|stack|awake|profile ELF [args]\n");
     return 2;
   }
   elf_path = argv[2];
@@ -380,6 +446,8 @@ int main(int argc, char **argv) {
     stack_depth();
   } else if (strcmp(argv[1], "speed") == 0 && argc > 4) {
     speed((unsigned)atoi(argv[3]), atof(argv[4]));
+  } else if (strcmp(argv[1], "profile") == 0 && argc > 4) {
+    cycle_profile((unsigned)atoi(argv[3]), atof(argv[4]));
   } else {
     fprintf(stderr, "ax12-bench: unknown command or missing arguments\n");
     return 2;

@@ -237,6 +237,15 @@ static inline __attribute__((always_inline)) void step_core(avr_t *avr, sim_cycl
 
 static void run_step(avr_t *avr) { step_core(avr, 0); }
 
+/* One instruction (or an interrupt's entry), its cycles added to the profile (servo_t). */
+static __attribute__((noinline)) void profiled_step(servo_t *servo) {
+  avr_t *avr = servo->avr;
+  const avr_flashaddr_t pc_before = avr->pc;
+  const sim_cycles_t cycle_before = avr->cycle;
+  step_core(avr, 0);
+  servo->pc_cycles[(pc_before / 2u) % servo->pc_cycles_words] += avr->cycle - cycle_before;
+}
+
 /* Busy-time probe: from the instruction at probe_pc (an ISR's entry) until the core sleeps
  * again. An entry while already inside (the work overran into the next period) extends it. */
 static void probe(servo_t *servo) {
@@ -330,7 +339,7 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
     return;
   }
   avr->run_cycle_limit = 1; /* a re-clamp ends the batch (step_core) */
-  const sim_cycles_t until = servo->single_step || servo->probe_pc ? 0 : t;
+  const sim_cycles_t until = servo->single_step || servo->probe_pc || servo->pc_cycles ? 0 : t;
   while (!servo->halted && avr->cycle < t) {
     if (avr->state == cpu_Sleeping) {
       const avr_cycle_timer_slot_p next = avr->cycle_timers.timer;
@@ -344,7 +353,11 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
         avr->cycle = next->when;
       }
     }
-    step_core(avr, until);
+    if (__builtin_expect(servo->pc_cycles != NULL, 0)) {
+      profiled_step(servo);
+    } else {
+      step_core(avr, until);
+    }
     if (servo->probe_pc) {
       probe(servo);
     }

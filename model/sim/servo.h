@@ -95,6 +95,12 @@ typedef struct servo {
   sim_cycles_t probe_start;
   uint64_t probe_calls;
   sim_cycles_t probe_max_cycles, probe_total_cycles;
+  /* Cycle profile: when set, the core runs one instruction a step and the cycles of each step
+   * (an instruction; an interrupt's entry, counted at the instruction before it) are added
+   * at its word address, modulo pc_cycles_words: with sleep_cycles they add up to the
+   * elapsed cycles. Servos of one firmware may share the array on one thread. */
+  uint64_t *pc_cycles;
+  size_t pc_cycles_words;
 } servo_t;
 
 /* Loads the firmware into a new MCU, its EEPROM from the state file (seeded when missing:
