@@ -339,7 +339,7 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
     return;
   }
   avr->run_cycle_limit = 1; /* a re-clamp ends the batch (step_core) */
-  const sim_cycles_t until = servo->single_step || servo->probe_pc || servo->pc_cycles ? 0 : t;
+  const sim_cycles_t until = servo->single_step || servo->probe_pc ? 0 : t; /* profiled_step: 0 too */
   while (!servo->halted && avr->cycle < t) {
     if (avr->state == cpu_Sleeping) {
       const avr_cycle_timer_slot_p next = avr->cycle_timers.timer;
