@@ -1,4 +1,4 @@
-"""The AX-12 control table as POLICY.md states it, for the client suites.
+"""The AX-12 control table as docs/policy.md states it, for the client suites.
 
 Written from the spec on purpose (not generated from firmware/core/ct_items.h), so the
 client tests check the firmware against the policy rather than against itself.
@@ -80,7 +80,7 @@ def default(item, profile):
 
 
 def baud_of(value):
-    """Baud Rate register value -> bits per second (POLICY: 2 000 000 / (value + 1))."""
+    """Baud Rate register value -> bits per second (docs/policy.md: 2 000 000 / (value + 1))."""
     return 2_000_000 / (value + 1)
 
 

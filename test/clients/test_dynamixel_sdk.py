@@ -1,6 +1,6 @@
 """ROBOTIS DynamixelSDK 4.1.0 (Protocol 1.0), unmodified, against emulated AX-12 servos.
 
-Every expectation comes from POLICY.md (and docs/protocol.md where POLICY is silent).
+Every expectation comes from docs/policy.md.
 """
 import time
 
@@ -448,9 +448,9 @@ def test_factory_reset_restores_defaults_and_id_1(emulators, bus_factory):
 
 def test_factory_reset_after_every_eeprom_item_changed_is_answered_in_time(emulators,
                                                                          bus_factory):
-    """POLICY: the reply starts Return Delay Time after the instruction's last byte, so the
-    SDK's factoryReset() (34 ms timeout) gets its status packet however much EEPROM the reset
-    has to rewrite."""
+    """docs/policy.md "Replies": the reply starts Return Delay Time after the instruction's
+    last byte, so the SDK's factoryReset() (34 ms timeout) gets its status packet however much
+    EEPROM the reset has to rewrite."""
     bus = bus_factory(emulators(ids="1").path)
     bus.write(1, P.GOAL, 512)
     values = _writable_values(bus)

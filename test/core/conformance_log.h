@@ -26,8 +26,7 @@
 #include "host_bus.h"
 
 /* Where a rule comes from. */
-#define CONFORMANCE_POLICY "POLICY.md"
-#define CONFORMANCE_PROTOCOL "docs/protocol.md" /* the core's decisions where POLICY.md is silent */
+#define CONFORMANCE_POLICY "docs/policy.md"
 #define CONFORMANCE_CONVERSATION "test/conversations"
 
 bool conformance_enabled(void);

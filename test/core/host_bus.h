@@ -7,7 +7,7 @@
  * - Time is a microsecond clock. A byte takes 10 bit times at its sender's baud
  *   (2 000 000 / (register + 1) bps); the finders get the clock in ms (wrapping at 2^16).
  * - A byte reaches a receiver only when sender and receiver bauds are within 3 %
- *   (POLICY.md "Framing and bus"); otherwise it is lost (the garbling is not modelled).
+ *   (docs/policy.md "Framing and bus"); otherwise it is lost (the garbling is not modelled).
  * - The bus is serialised: when a byte completes a packet, every answering servo's reply is
  *   transmitted in full, in order of its start time (2 us x Return Delay Time after the byte),
  *   before the master's next byte. Replies whose time windows overlap are still delivered

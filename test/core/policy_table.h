@@ -1,4 +1,4 @@
-/* The control table of POLICY.md, restated for the tests independently of ct_items.h, so a
+/* The control table of docs/policy.md, restated for the tests independently of ct_items.h, so a
  * mistake in the core's descriptor shows up as a disagreement rather than being checked
  * against itself. Access and defaults are those of the profile the test is built for. */
 #ifndef POLICY_TABLE_H

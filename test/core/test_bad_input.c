@@ -1,4 +1,4 @@
-/* Bad input on the wire (POLICY.md "Framing and bus"):
+/* Bad input on the wire (docs/policy.md "Framing and bus"):
  * - every truncation of every packet of the conversation suite, followed by a gap of more
  *   than 100 ms: no reply, no change, and the rest of the conversation still runs exactly;
  * - every single-bit flip of those packets: the checksum catches it, unless the flip reframes
@@ -533,9 +533,10 @@ static bool swallowed_by_accidental(const oracle_t *o, const inserted_t *ins) {
 static stream_t stream;
 static oracle_t oracle;
 
-/* What the finder held when a gap came: the gap discards it whole (POLICY.md), including a
- * valid packet that waited behind an unfinished false candidate (FF FF, an ID and a long
- * LENGTH made of garbage). That packet is lost as on the real bus; the master would retry. */
+/* What the finder held when a gap came: the gap discards it whole (docs/policy.md "Framing
+ * and bus"), including a valid packet that waited behind an unfinished false candidate
+ * (FF FF, an ID and a long LENGTH made of garbage). That packet is lost as on the real bus;
+ * the master would retry. */
 #define GAPS_MAX 16384u
 static uint64_t gap_held_from[GAPS_MAX];
 static uint64_t gap_held_to[GAPS_MAX];

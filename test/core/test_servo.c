@@ -1,4 +1,4 @@
-/* One servo's protocol behaviour (dxl_servo.h) on a host bus, against POLICY.md:
+/* One servo's protocol behaviour (dxl_servo.h) on a host bus, against docs/policy.md:
  * the reply matrix (instruction x addressing x Status Return Level) and every error path. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -159,7 +159,7 @@ static void test_matrix_case(void **state) {
     runs = row->runs_on_own_id;
     break;
   case TO_BROADCAST:
-    /* POLICY.md: no reply to broadcast except PING in profile ax12 */
+    /* docs/policy.md "Replies": no reply to broadcast except PING in profile ax12 */
     answered = row->instruction == DXL_INST_PING && DXL_PROFILE == DXL_PROFILE_AX12;
     runs = row->runs_on_broadcast;
     break;
@@ -190,7 +190,7 @@ static void test_matrix_case(void **state) {
   then_the_table_is_as_expected();
 }
 
-/* The rule a matrix case checks (POLICY.md). */
+/* The rule a matrix case checks (docs/policy.md). */
 static void matrix_case_begin(const matrix_case_t *c) {
   const char *section = "Replies";
   const char *rule = "Status Return Level: 0 answers PING only; 1 answers PING and READ; 2 answers everything.";
@@ -367,8 +367,9 @@ static void test_action_with_nothing_registered_is_an_instruction_error(void **s
  * Range errors
  * ====================================================================================== */
 
-/* The Angle Limit condition after the write of item = value on a fresh servo (POLICY.md):
- * the goal (512 at power-up) outside CW..CCW; in wheel mode only a written goal counts. */
+/* The Angle Limit condition after the write of item = value on a fresh servo (docs/policy.md
+ * "Instructions and their errors"): the goal (512 at power-up) outside CW..CCW; in wheel mode
+ * only a written goal counts. */
 static uint8_t angle_limit_after(const pol_item_t *item, uint16_t value) {
   uint16_t cw = 0;
   uint16_t ccw = 1023;
@@ -427,8 +428,8 @@ static void test_range_case(void **state) {
   }
   then_status_is(&bus, ID, angle_limit_after(c->item, c->value), NO_PARAMS); /* reply from the old ID */
   if (c->item->addr == 44) {
-    /* Writing 1 to Registered Instruction with nothing registered changes nothing (the core's
-     * reading of POLICY: only writing 0 has an effect, it discards). */
+    /* Writing 1 to Registered Instruction with nothing registered changes nothing: only
+     * writing 0 has an effect, it discards (docs/policy.md "Instructions and their errors"). */
     assert_int_equal(item_value(c->item), 0);
   } else {
     assert_int_equal(item_value(c->item), c->value);
@@ -497,7 +498,7 @@ static bool is_read_only_or_reserved(uint8_t addr) {
 
 static void test_read_only_and_reserved_addresses_refuse_writes(void **state) {
   (void)state;
-  /* POLICY.md: 0..2, 10, 20..23, 36..43, 45, 46; and 44 in profile ax12a */
+  /* docs/policy.md "Control table": 0..2, 10, 20..23, 36..43, 45, 46; and 44 in profile ax12a */
   const uint8_t expected[] = {0, 1, 2, 10, 20, 21, 22, 23, 36, 37, 38, 39, 40, 41, 42, 43, 45, 46
 #if DXL_PROFILE == DXL_PROFILE_AX12A
                               ,
@@ -1155,7 +1156,6 @@ static void test_a_baud_change_applies_after_the_reply(void **state) {
  * (docs/conformance.md): X(test function, source, section, rule). The same list builds the cmocka
  * array, and its per-test setup names the test and its rule in the conformance log. */
 #define POLICY CONFORMANCE_POLICY
-#define PROTOCOL CONFORMANCE_PROTOCOL
 #define RULE_BAD_CHECKSUM                                                                                             \
   "A packet for this ID with a bad checksum: not executed; answered with the Checksum Error bit when Status "        \
   "Return Level is 2."
@@ -1188,14 +1188,14 @@ static void test_a_baud_change_applies_after_the_reply(void **state) {
     "Profile `ax12`: [...] every other write, Lock itself and Punch included, is a Range Error.")                    \
   X(test_locked_ax12_refuses_reset_with_an_instruction_error, POLICY, "Lock",                                        \
     "Profile `ax12`: [...] RESET is refused with an Instruction Error.")                                             \
-  X(test_locked_ax12_action_of_a_write_registered_before_the_lock_is_refused, PROTOCOL, "Decisions where POLICY.md is silent", \
+  X(test_locked_ax12_action_of_a_write_registered_before_the_lock_is_refused, POLICY, "Instructions and their errors", \
     "ACTION re-checks the registered write against the table as it is then (Lock or angle limits may have changed "  \
     "since the REG_WRITE): if it no longer fits, the reply has the Range Error bit and nothing changes; the write "   \
     "stays registered.")
 #define REGISTERED_INSTRUCTION_ERROR_PATHS(X)                                                                         \
   X(test_writing_0_to_registered_instruction_discards_the_registered_write, POLICY, "Instructions and their errors", \
     "Writing 0 to address 44 discards the registered write.")                                                        \
-  X(test_writing_1_to_registered_instruction_keeps_the_registered_write, PROTOCOL, "Decisions where POLICY.md is silent", \
+  X(test_writing_1_to_registered_instruction_keeps_the_registered_write, POLICY, "Instructions and their errors",   \
     "Writing 1 to Registered Instruction (address 44, profile `ax12`) changes nothing: the register shows whether a " \
     "write is registered. Writing 0 discards it.")
 #else
@@ -1214,7 +1214,7 @@ static void test_a_baud_change_applies_after_the_reply(void **state) {
   X(test_a_bad_checksum_is_answered_with_the_checksum_error_at_level_2_and_not_executed, POLICY,                    \
     "Instructions and their errors", RULE_BAD_CHECKSUM)                                                              \
   X(test_a_bad_checksum_is_silent_at_levels_0_and_1, POLICY, "Instructions and their errors", RULE_BAD_CHECKSUM)    \
-  X(test_a_bad_checksum_for_another_id_or_broadcast_is_silent, PROTOCOL, "Decisions where POLICY.md is silent",     \
+  X(test_a_bad_checksum_for_another_id_or_broadcast_is_silent, POLICY, "Instructions and their errors",             \
     "An instruction packet with a bad checksum for this ID gets the Checksum Error reply at Status Return Level 2; " \
     "a bad-checksum packet for the broadcast ID gets no reply.")                                                     \
   X(test_a_reset_with_a_bad_checksum_does_not_reset, POLICY, "Instructions and their errors", RULE_BAD_CHECKSUM)    \
@@ -1222,7 +1222,7 @@ static void test_a_baud_change_applies_after_the_reply(void **state) {
     RULE_UNKNOWN " Not AX-12 instructions here: BULK_READ (0x92), SYNC_READ: Instruction Error.")                    \
   X(test_read_with_one_or_three_parameters_is_an_instruction_error, POLICY, "Instructions and their errors",        \
     RULE_LENGTH)                                                                                                     \
-  X(test_ping_with_parameters_is_an_instruction_error, PROTOCOL, "Decisions where POLICY.md is silent",             \
+  X(test_ping_with_parameters_is_an_instruction_error, POLICY, "Instructions and their errors",                     \
     "PING always answers (Status Return Level 0 included), also when its LENGTH is wrong: then with the "            \
     "Instruction Error bit.")                                                                                        \
   X(test_action_with_parameters_is_an_instruction_error_and_runs_nothing, POLICY, "Instructions and their errors", \
@@ -1253,14 +1253,14 @@ static void test_a_baud_change_applies_after_the_reply(void **state) {
     "Instructions and their errors", RULE_GOAL_OUTSIDE)                                                              \
   X(test_limits_moved_past_the_goal_raise_the_angle_limit_condition, POLICY, "Instructions and their errors",       \
     RULE_GOAL_OUTSIDE)                                                                                               \
-  X(test_in_wheel_mode_any_goal_written_raises_the_angle_limit_condition, PROTOCOL,                                 \
-    "Decisions where POLICY.md is silent",                                                                           \
+  X(test_in_wheel_mode_any_goal_written_raises_the_angle_limit_condition, POLICY,                                   \
+    "Instructions and their errors",                                                                                \
     "In wheel mode every Goal Position written counts as outside the angle limits: the Angle Limit condition holds " \
     "from that write until the servo leaves wheel mode. Entering wheel mode with an old goal does not raise it.")    \
   X(test_sync_write_writes_each_servo_its_own_slice_silently, POLICY, "Instructions and their errors",              \
     RULE_SYNC_SLICES)                                                                                                \
   X(test_sync_write_with_a_length_that_does_not_fit_is_ignored_whole, POLICY, "Instructions and their errors",      \
-    RULE_SYNC_LENGTH " (docs/protocol.md: a data length L of 0 is ignored whole too.)")                             \
+    RULE_SYNC_LENGTH " (docs/policy.md: a data length L of 0 is ignored whole too.)")                               \
   X(test_sync_write_with_data_length_255_is_ignored_whole, POLICY, "Instructions and their errors", RULE_SYNC_LENGTH) \
   X(test_sync_write_to_a_unicast_id_is_an_instruction_error, POLICY, "Instructions and their errors",               \
     "SYNC_WRITE: only with ID 0xFE (to a unicast ID it is an Instruction Error).")                                   \
@@ -1279,7 +1279,7 @@ static void test_a_baud_change_applies_after_the_reply(void **state) {
   X(test_a_range_error_is_only_in_the_reply_to_the_offending_packet, POLICY, "Error byte", RULE_EVENTS)             \
   X(test_a_checksum_error_is_only_in_the_reply_to_the_offending_packet, POLICY, "Error byte", RULE_EVENTS)          \
   X(test_an_instruction_error_is_only_in_the_reply_to_the_offending_packet, POLICY, "Error byte", RULE_EVENTS)      \
-  X(test_events_are_handed_to_the_alarm_layer_once, PROTOCOL, "Control tick",                                       \
+  X(test_events_are_handed_to_the_alarm_layer_once, POLICY, "Alarms",                                               \
     "Alarm LED blinks at 2 Hz while an enabled alarm holds (events count for one tick).")                            \
   X(test_a_factory_reset_keeps_the_held_conditions, POLICY, "Error byte", RULE_CONDITIONS)                           \
   X(test_the_reply_waits_2us_per_unit_of_return_delay_time, POLICY, "Replies",                                      \

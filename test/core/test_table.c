@@ -1,4 +1,4 @@
-/* The control table (dxl_table.h, ct_items.h) against POLICY.md "Control table". */
+/* The control table (dxl_table.h, ct_items.h) against docs/policy.md "Control table". */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -25,7 +25,7 @@ static void test_every_address_belongs_to_the_item_policy_names(void **state) {
     for (uint8_t a = p->addr; a < p->addr + p->size_bytes; a++) {
       const ct_desc_t d = ct_items[ct_item_index_at(a)];
       if (d.addr != p->addr || d.size_bytes != p->size_bytes) {
-        fail_msg("address %u: core item at %u size %u, POLICY %s at %u size %u", a, d.addr, d.size_bytes, p->name,
+        fail_msg("address %u: core item at %u size %u, policy %s at %u size %u", a, d.addr, d.size_bytes, p->name,
                  p->addr, p->size_bytes);
       }
     }
@@ -38,10 +38,10 @@ static void test_access_and_write_ranges_follow_policy(void **state) {
     const pol_item_t *p = &pol_items[i];
     const ct_desc_t d = ct_items[ct_item_index_at(p->addr)];
     if (policy_access_of(d.access) != p->access) {
-      fail_msg("%s: access %u, POLICY %u", p->name, d.access, p->access);
+      fail_msg("%s: access %u, policy %u", p->name, d.access, p->access);
     }
     if (p->access == POL_RW && (d.min != p->min || d.max != p->max)) {
-      fail_msg("%s: range %u..%u, POLICY %u..%u", p->name, d.min, d.max, p->min, p->max);
+      fail_msg("%s: range %u..%u, policy %u..%u", p->name, d.min, d.max, p->min, p->max);
     }
   }
 }
@@ -54,7 +54,7 @@ static void test_power_up_values_follow_policy_for_this_profile(void **state) {
     const pol_item_t *p = &pol_items[i];
     const uint16_t value = p->size_bytes == 2 ? ct_get_u16(servo.table, p->addr) : servo.table[p->addr];
     if (value != p->power_up_value) {
-      fail_msg("%s (address %u) is %u after power-up, POLICY says %u", p->name, p->addr, value, p->power_up_value);
+      fail_msg("%s (address %u) is %u after power-up, the policy says %u", p->name, p->addr, value, p->power_up_value);
     }
   }
 }
@@ -62,7 +62,7 @@ static void test_power_up_values_follow_policy_for_this_profile(void **state) {
 static void test_the_reg_write_slot_holds_the_longest_writable_window(void **state) {
   (void)state;
   assert_int_equal(DXL_REG_SLOT_BYTES, ct_longest_writable_run());
-  /* and that window is 24..35 in POLICY's table: 12 bytes */
+  /* and that window is 24..35 in the policy's table: 12 bytes */
   size_t longest = 0;
   size_t run = 0;
   for (uint8_t a = 0; a < POL_TABLE_SIZE; a++) {
