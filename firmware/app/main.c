@@ -29,6 +29,8 @@
 #include "adc.h"
 #include "board.h"
 #include "control.h"
+#include "dxl_after.h"
+#include "dxl_after_port.h"
 #include "dxl_packet.h"
 #include "dxl_protocol.h"
 #include "dxl_servo.h"
@@ -82,30 +84,24 @@ volatile uint16_t control_tick_count;
 static uint8_t boot_blink_ms; /* into the current phase */
 static uint8_t boot_blink_phase;
 
-static void apply_after(uint8_t after) {
-  if (after & DXL_AFTER_FACTORY_RESET) {
-    /* POLICY.md: RESET's changes apply after the reply, persisting included. A power cut
-     * while the image is written leaves a CRC mismatch, which boots to the same defaults. */
-    dxl_servo_factory_reset(&servo);
-    nvm_persist(servo.table);
-  }
-  if (after & DXL_AFTER_APPLY_BAUD) {
-    uart_set_baud(servo.table[CT_ADDR_BAUD_RATE]);
-  }
-  /* DXL_AFTER_PERSIST of a write: done before the reply (send_response). */
+/* The board side of the after-reply policy (dxl_after_port.h); one servo, no port handle. */
+void dxl_after_port_persist(void *port, const uint8_t *table) {
+  (void)port;
+  nvm_persist(table);
+}
+
+void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
+  (void)port;
+  uart_set_baud(baud_register);
 }
 
 /* After commit (or reject): persist, then reply or act at once. */
 static void send_response(void) {
   const uint8_t after = response.after;
-  /* A write of the EEPROM area is stored before its reply, so a reply proves the value
-   * survives a power cut (the emulator's SIGKILL test); RESET answers first. */
-  const bool persist_first = (after & DXL_AFTER_PERSIST) && !(after & DXL_AFTER_FACTORY_RESET);
-  if (persist_first) {
-    nvm_persist(servo.table);
-  }
+  /* dxl_after.h: a write of the EEPROM area is stored before its reply. */
+  const bool persist_first = dxl_after_before_reply(&servo, after, NULL);
   if (response.length == 0) {
-    apply_after(after);
+    dxl_after_reply(&servo, after, NULL);
     return;
   }
   after_reply = after;
@@ -317,7 +313,7 @@ static void service_reply(void) {
     uart_reply_finish();
     const uint8_t after = after_reply;
     after_reply = 0;
-    apply_after(after);
+    dxl_after_reply(&servo, after, NULL);
     refresh_ping_reply();
   }
 }

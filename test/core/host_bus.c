@@ -3,6 +3,8 @@
 #include <string.h>
 
 #include "conformance_log.h"
+#include "dxl_after.h"
+#include "dxl_after_port.h"
 #include "dxl_protocol.h"
 
 #define BITS_PER_BYTE 10u /* start, 8 data, stop */
@@ -60,16 +62,23 @@ void host_bus_init(host_bus_t *bus, const uint8_t *ids, size_t count, uint8_t ba
   conformance_on_bus_init(bus);
 }
 
+/* The board side of the after-reply policy (dxl_after_port.h): the port is the servo. */
+void dxl_after_port_persist(void *port, const uint8_t *table) {
+  host_bus_servo_t *hs = port;
+  dxl_image_build(hs->eeprom_image, table);
+}
+
+void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
+  host_bus_servo_t *hs = port;
+  hs->uart_baud = baud_register;
+}
+
+/* What follows a reply (dxl_after.h); a factory reset also clears Present Temperature,
+ * which the harness stands in for the control layer to fill. */
 static void after_reply(host_bus_t *bus, host_bus_servo_t *hs, uint8_t after) {
+  dxl_after_reply(&hs->servo, after, hs);
   if (after & DXL_AFTER_FACTORY_RESET) {
-    dxl_servo_factory_reset(&hs->servo);
     set_temperature(bus, hs);
-  }
-  if (after & DXL_AFTER_APPLY_BAUD) {
-    hs->uart_baud = hs->servo.table[CT_ADDR_BAUD_RATE];
-  }
-  if (after & DXL_AFTER_PERSIST) {
-    dxl_image_build(hs->eeprom_image, hs->servo.table);
   }
 }
 
@@ -98,6 +107,7 @@ static void receive(host_bus_t *bus, size_t index, uint8_t byte, pending_reply_t
       hs->bad_checksums++;
       dxl_servo_reject_checksum(&hs->servo, &packet, &response);
     }
+    (void)dxl_after_before_reply(&hs->servo, response.after, hs);
     if (bus->observer != NULL) {
       const host_bus_event_t event = {index, found, first_rx_index, framed, length, &response};
       bus->observer(bus->observer_context, bus, &event);
