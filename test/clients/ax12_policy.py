@@ -53,6 +53,8 @@ TABLE = [
 BY_ADDR = {it.addr: it for it in TABLE}
 LAST_ADDR = 49          # a READ/WRITE window may not reach past this address
 EEPROM_END = 24         # 0..23 EEPROM, 24..49 RAM
+# Profile ax12a (the AX-12A e-manual): where its access differs from the ax12 column.
+ACCESS_AX12A = {44: R}  # Registered Instruction is read-only
 
 # Error byte bits
 ERR_VOLTAGE = 0x01
@@ -62,6 +64,9 @@ ERR_RANGE = 0x08
 ERR_CHECKSUM = 0x10
 ERR_OVERLOAD = 0x20
 ERR_INSTRUCTION = 0x40
+ERROR_BITS = {0x01: "Input Voltage", 0x02: "Angle Limit", 0x04: "Overheating", 0x08: "Range",
+              0x10: "Checksum", 0x20: "Overload", 0x40: "Instruction"}
+ERROR_CONDITIONS = {0x01, 0x02, 0x04, 0x20}  # set while true; the others only in one reply
 
 # Addresses by name
 ID, BAUD, RDT, CW_LIMIT, CCW_LIMIT = 3, 4, 5, 6, 8
