@@ -6,6 +6,7 @@
  * Usage: gen_ax12_table OUT.py
  */
 #include <ctype.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -45,6 +46,18 @@ static void write_title(FILE *out, const char *name) {
   }
 }
 
+static const char *access_name(enum ct_access access) {
+  switch (access) {
+    case CT_R:
+      return "R";
+    case CT_RW:
+      return "RW";
+    case CT_NONE:
+      break;
+  }
+  return "NONE";
+}
+
 static bool starts_with(const char *text, const char *prefix) {
   return strncmp(text, prefix, strlen(prefix)) == 0;
 }
@@ -79,12 +92,12 @@ static void write_module(FILE *out) {
         "default_ax12a\")\n\n"
         "ITEMS = (\n",
         out);
-#define WRITE_ITEM(name, addr, size, acc, acc_a, min, max, def, def_a)                                        \
-  fprintf(out, "    Item(\"%s\", \"", #name);                                                                \
-  write_title(out, #name);                                                                                  \
-  fprintf(out, "\", %u, %u, \"%s\", \"%s\", %lu, %lu, %lu, %lu),\n", (unsigned)(addr), (unsigned)(size),     \
-          #acc + 3, #acc_a + 3, (unsigned long)(min), (unsigned long)(max), (unsigned long)(def),           \
-          (unsigned long)(def_a));
+#define WRITE_ITEM(name, addr, size, acc, acc_a, min, max, def, def_a)                                   \
+  fprintf(out, "    Item(\"%s\", \"", #name);                                                           \
+  write_title(out, #name);                                                                             \
+  fprintf(out, "\", %u, %u, \"%s\", \"%s\", %lu, %lu, %lu, %lu),\n", (unsigned)(addr), (unsigned)(size), \
+          access_name(acc), access_name(acc_a), (unsigned long)(min), (unsigned long)(max),             \
+          (unsigned long)(def), (unsigned long)(def_a));
   CT_ITEMS(WRITE_ITEM)
 #undef WRITE_ITEM
   fputs(")\nBY_ADDR = {item.addr: item for item in ITEMS}\n\n# The address of each item.\n", out);
