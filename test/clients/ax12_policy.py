@@ -1,7 +1,9 @@
 """The AX-12 control table as docs/policy.md states it, for the client suites.
 
 Written from the spec on purpose (not generated from firmware/core/ct_items.h), so the
-client tests check the firmware against the policy rather than against itself.
+client tests check the firmware against the policy rather than against itself. It is the one
+hand-written table of the Python side: everything else imports ax12_table, generated from
+ct_items.h at build time, and test_ct_items_match_the_policy.py compares the two item by item.
 """
 from collections import namedtuple
 
@@ -53,26 +55,13 @@ TABLE = [
 BY_ADDR = {it.addr: it for it in TABLE}
 LAST_ADDR = 49          # a READ/WRITE window may not reach past this address
 EEPROM_END = 24         # 0..23 EEPROM, 24..49 RAM
+# Profile ax12a (the AX-12A e-manual): where its access differs from the ax12 column.
+ACCESS_AX12A = {44: R}  # Registered Instruction is read-only
 
 # Error byte bits
-ERR_VOLTAGE = 0x01
-ERR_ANGLE = 0x02
-ERR_OVERHEAT = 0x04
-ERR_RANGE = 0x08
-ERR_CHECKSUM = 0x10
-ERR_OVERLOAD = 0x20
-ERR_INSTRUCTION = 0x40
-
-# Addresses by name
-ID, BAUD, RDT, CW_LIMIT, CCW_LIMIT = 3, 4, 5, 6, 8
-TEMP_LIMIT, LOW_VOLT, HIGH_VOLT, MAX_TORQUE, SRL = 11, 12, 13, 14, 16
-ALARM_LED, ALARM_SHUTDOWN = 17, 18
-TORQUE_ENABLE, LED = 24, 25
-CW_MARGIN, CCW_MARGIN, CW_SLOPE, CCW_SLOPE = 26, 27, 28, 29
-GOAL, SPEED, TORQUE_LIMIT = 30, 32, 34
-PRESENT_POSITION, PRESENT_SPEED, PRESENT_LOAD = 36, 38, 40
-PRESENT_VOLTAGE, PRESENT_TEMPERATURE = 42, 43
-REGISTERED, MOVING, LOCK, PUNCH = 44, 46, 47, 48
+ERROR_BITS = {0x01: "Input Voltage", 0x02: "Angle Limit", 0x04: "Overheating", 0x08: "Range",
+              0x10: "Checksum", 0x20: "Overload", 0x40: "Instruction"}
+ERROR_CONDITIONS = {0x01, 0x02, 0x04, 0x20}  # set while true; the others only in one reply
 
 
 def default(item, profile):

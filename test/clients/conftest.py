@@ -10,6 +10,9 @@ The emulator is found through the environment:
 
 State folders live under pytest's temporary directory (`--basetemp DIR` moves them).
 
+The tests take addresses and error bits from ax12_table, generated from firmware/core/ct_items.h
+by the build: ctest puts it on PYTHONPATH; run by hand, the one of build/ is used.
+
 Each emulator runs in real time (the default), because every client has wall-clock timeouts
 (DynamixelSDK ~34 ms, pyax12 sleeps 20 ms, pypot 50 ms), and in a fresh temporary state folder,
 so every servo starts from factory defaults with the IDs asked for.
@@ -20,6 +23,7 @@ import select
 import shlex
 import signal
 import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -27,6 +31,11 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(REPO / "python"))
+import ax12_build  # noqa: E402
+
+ax12_build.ensure(str(REPO / "build"))
+
 READY_TIMEOUT_S = float(os.environ.get("AX12_EMU_READY_TIMEOUT", "30"))
 
 

@@ -10,6 +10,7 @@ from dynamixel_sdk import (COMM_RX_TIMEOUT, COMM_SUCCESS, GroupSyncWrite, Packet
 from dynamixel_sdk.robotis_def import BROADCAST_ID, DXL_HIBYTE, DXL_LOBYTE
 
 import ax12_policy as P
+import ax12_table as T
 
 BAUD_1M = 1_000_000
 
@@ -117,23 +118,23 @@ def test_every_address_reads_its_factory_default(emulators, bus_factory, profile
         if want is not P.RUNTIME:
             assert value == want, f"{item.name} (addr {item.addr}) = {value}, default {want}"
     # Power-up: Goal Position = Present Position, Torque Limit = Max Torque.
-    assert abs(bus.read(1, P.GOAL) - bus.read(1, P.PRESENT_POSITION)) <= 2
-    assert bus.read(1, P.TORQUE_LIMIT) == bus.read(1, P.MAX_TORQUE)
-    assert 0 <= bus.read(1, P.PRESENT_POSITION) <= 1023
+    assert abs(bus.read(1, T.GOAL_POSITION) - bus.read(1, T.PRESENT_POSITION)) <= 2
+    assert bus.read(1, T.TORQUE_LIMIT) == bus.read(1, T.MAX_TORQUE)
+    assert 0 <= bus.read(1, T.PRESENT_POSITION) <= 1023
 
 
 def test_every_address_reads_with_read1_and_read2(one):
     """READ 1 byte at 0..49 and 2 bytes at 0..48 all succeed with no error, and agree with one
     READ of the whole table (for the items that do not change on their own)."""
-    table, result, error = one.ph.readTxRx(one.port, 1, 0, 50)
-    one._check("read(0, 50)", result, error)
-    assert len(table) == 50
-    live = set(range(36, 44)) | {46}     # Present*, Moving
-    for addr in range(0, 50):
+    table, result, error = one.ph.readTxRx(one.port, 1, 0, T.TABLE_SIZE)
+    one._check(f"read(0, {T.TABLE_SIZE})", result, error)
+    assert len(table) == T.TABLE_SIZE
+    live = set(range(T.PRESENT_POSITION, T.PRESENT_TEMPERATURE + 1)) | {T.MOVING}
+    for addr in range(0, T.TABLE_SIZE):
         v1 = one.read(1, addr, size=1)
         if addr not in live:
             assert v1 == table[addr], f"read1 addr {addr}: {v1} vs table {table[addr]}"
-    for addr in range(0, 49):
+    for addr in range(0, T.TABLE_SIZE - 1):
         v2 = one.read(1, addr, size=2)
         if addr not in live and addr + 1 not in live:
             assert v2 == table[addr] | table[addr + 1] << 8, f"read2 addr {addr}"
@@ -141,18 +142,18 @@ def test_every_address_reads_with_read1_and_read2(one):
 
 def test_read_window_past_address_49_is_a_range_error_with_no_data(one):
     # The SDK's read2ByteTxRx would index a missing second byte; readTxRx shows the packet.
-    data, result, error = one.ph.readTxRx(one.port, 1, 49, 2)
+    data, result, error = one.ph.readTxRx(one.port, 1, T.TABLE_SIZE - 1, 2)
     assert result == COMM_SUCCESS
-    assert error == P.ERR_RANGE
+    assert error == T.ERR_RANGE
     # No parameters: the SDK's slice [5:7] of a 6-byte status packet holds only the checksum.
     assert len(data) <= 1
-    data, result, error = one.ph.readTxRx(one.port, 1, 0, 51)
-    assert (result, error) == (COMM_SUCCESS, P.ERR_RANGE)
+    data, result, error = one.ph.readTxRx(one.port, 1, 0, T.TABLE_SIZE + 1)
+    assert (result, error) == (COMM_SUCCESS, T.ERR_RANGE)
 
 
 def test_read_of_length_zero_is_a_range_error(one):
     data, result, error = one.ph.readTxRx(one.port, 1, 0, 0)
-    assert (result, error) == (COMM_SUCCESS, P.ERR_RANGE)
+    assert (result, error) == (COMM_SUCCESS, T.ERR_RANGE)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -162,40 +163,40 @@ def test_read_of_length_zero_is_a_range_error(one):
 def _writable_values(bus):
     """A valid value, different from the factory default, for every writable address, chosen
     so that no alarm condition starts (limits keep bracketing the present readings)."""
-    volts = bus.read(1, P.PRESENT_VOLTAGE)
-    temp = bus.read(1, P.PRESENT_TEMPERATURE)
+    volts = bus.read(1, T.PRESENT_VOLTAGE)
+    temp = bus.read(1, T.PRESENT_TEMPERATURE)
     assert 50 < volts < 250, f"Present Voltage {volts}"
     return {
-        P.RDT: 10,
-        P.CW_LIMIT: 100,
-        P.CCW_LIMIT: 900,
-        P.TEMP_LIMIT: max(temp + 10, 100),
-        P.LOW_VOLT: max(50, volts - 5),
-        P.HIGH_VOLT: min(250, volts + 5),
-        P.MAX_TORQUE: 800,
-        P.ALARM_LED: 0x25,
-        P.ALARM_SHUTDOWN: 0x25,
-        19: 1,
-        P.TORQUE_ENABLE: 1,
-        P.LED: 1,
-        P.CW_MARGIN: 5,
-        P.CCW_MARGIN: 6,
-        P.CW_SLOPE: 20,        # stored as written; it acts as 32
-        P.CCW_SLOPE: 100,      # acts as 128
-        P.GOAL: 600,
-        P.SPEED: 300,
-        P.TORQUE_LIMIT: 700,
-        P.REGISTERED: 0,
-        P.PUNCH: 100,
+        T.RETURN_DELAY_TIME: 10,
+        T.CW_ANGLE_LIMIT: 100,
+        T.CCW_ANGLE_LIMIT: 900,
+        T.HIGHEST_LIMIT_TEMP: max(temp + 10, 100),
+        T.LOWEST_LIMIT_VOLTAGE: max(50, volts - 5),
+        T.HIGHEST_LIMIT_VOLTAGE: min(250, volts + 5),
+        T.MAX_TORQUE: 800,
+        T.ALARM_LED: 0x25,
+        T.ALARM_SHUTDOWN: 0x25,
+        T.RESERVED_19: 1,
+        T.TORQUE_ENABLE: 1,
+        T.LED: 1,
+        T.CW_COMPLIANCE_MARGIN: 5,
+        T.CCW_COMPLIANCE_MARGIN: 6,
+        T.CW_COMPLIANCE_SLOPE: 20,  # stored as written; it acts as 32
+        T.CCW_COMPLIANCE_SLOPE: 100,  # acts as 128
+        T.GOAL_POSITION: 600,
+        T.MOVING_SPEED: 300,
+        T.TORQUE_LIMIT: 700,
+        T.REGISTERED_INSTRUCTION: 0,
+        T.PUNCH: 100,
     }
 
 
-SPECIAL = {P.ID, P.BAUD, P.SRL, P.LOCK}   # tested on their own below
+SPECIAL = {T.ID, T.BAUD_RATE, T.STATUS_RETURN_LEVEL, T.LOCK}  # tested on their own below
 
 
 def test_every_writable_register_takes_a_valid_value_and_reads_it_back(one):
     # Park the goal in the middle first, so new angle limits never put it outside.
-    one.write(1, P.GOAL, 512)
+    one.write(1, T.GOAL_POSITION, 512)
     values = _writable_values(one)
     writable = [it for it in P.TABLE if it.access == P.RW and it.addr not in SPECIAL]
     assert sorted(values) == sorted(it.addr for it in writable)
@@ -205,10 +206,10 @@ def test_every_writable_register_takes_a_valid_value_and_reads_it_back(one):
         one.write(1, it.addr, values[it.addr])
         got = one.read(1, it.addr)
         assert got == values[it.addr], f"{it.name} (addr {it.addr}): wrote {values[it.addr]}, read {got}"
-    one.write(1, P.TORQUE_ENABLE, 0)
+    one.write(1, T.TORQUE_ENABLE, 0)
     # EEPROM items go back to what they were.
     for it in writable:
-        if it.addr < P.EEPROM_END:
+        if it.addr < T.EEPROM_SIZE:
             one.write(1, it.addr, originals[it.addr])
             assert one.read(1, it.addr) == originals[it.addr], it.name
 
@@ -216,28 +217,28 @@ def test_every_writable_register_takes_a_valid_value_and_reads_it_back(one):
 def test_eeprom_writes_survive_a_power_cycle_and_ram_does_not(emulators, bus_factory):
     emu = emulators(ids="1")
     bus = bus_factory(emu.path)
-    bus.write(1, P.RDT, 10)
-    bus.write(1, P.CCW_LIMIT, 900)
-    bus.write(1, P.LED, 1)
-    bus.write(1, P.PUNCH, 100)
+    bus.write(1, T.RETURN_DELAY_TIME, 10)
+    bus.write(1, T.CCW_ANGLE_LIMIT, 900)
+    bus.write(1, T.LED, 1)
+    bus.write(1, T.PUNCH, 100)
     bus.close()
     emu.restart()
     bus = bus_factory(emu.path)
-    assert bus.read(1, P.RDT) == 10
-    assert bus.read(1, P.CCW_LIMIT) == 900
-    assert bus.read(1, P.LED) == 0
-    assert bus.read(1, P.PUNCH) == 32
+    assert bus.read(1, T.RETURN_DELAY_TIME) == 10
+    assert bus.read(1, T.CCW_ANGLE_LIMIT) == 900
+    assert bus.read(1, T.LED) == 0
+    assert bus.read(1, T.PUNCH) == 32
 
 
 def test_one_byte_of_a_16_bit_item_may_be_written_alone(one):
-    one.write(1, P.GOAL, 0x0123)
-    one.write(1, P.GOAL, 0x45, size=1)                 # low byte only
-    assert one.read(1, P.GOAL) == 0x0145
-    one.write(1, P.GOAL + 1, 0x02, size=1)             # high byte only
-    assert one.read(1, P.GOAL) == 0x0245
+    one.write(1, T.GOAL_POSITION, 0x0123)
+    one.write(1, T.GOAL_POSITION, 0x45, size=1)        # low byte only
+    assert one.read(1, T.GOAL_POSITION) == 0x0145
+    one.write(1, T.GOAL_POSITION + 1, 0x02, size=1)    # high byte only
+    assert one.read(1, T.GOAL_POSITION) == 0x0245
     # The range check applies to the resulting 16-bit value: 0x0445 > 1023.
-    one.write(1, P.GOAL + 1, 0x04, size=1, want_error=P.ERR_RANGE)
-    assert one.read(1, P.GOAL) == 0x0245
+    one.write(1, T.GOAL_POSITION + 1, 0x04, size=1, want_error=T.ERR_RANGE)
+    assert one.read(1, T.GOAL_POSITION) == 0x0245
 
 
 # ---------------------------------------------------------------------------------------------
@@ -245,16 +246,18 @@ def test_one_byte_of_a_16_bit_item_may_be_written_alone(one):
 # ---------------------------------------------------------------------------------------------
 
 OUT_OF_RANGE = [
-    (P.ID, 254), (P.BAUD, 255), (P.RDT, 255), (P.CW_LIMIT, 1024), (P.CCW_LIMIT, 1024),
-    (P.TEMP_LIMIT, 151), (P.LOW_VOLT, 49), (P.LOW_VOLT, 251), (P.HIGH_VOLT, 49),
-    (P.HIGH_VOLT, 251), (P.MAX_TORQUE, 1024), (P.SRL, 3), (P.ALARM_LED, 128),
-    (P.ALARM_SHUTDOWN, 128), (19, 2), (P.TORQUE_ENABLE, 2), (P.LED, 2), (P.CW_MARGIN, 255),
-    (P.CCW_MARGIN, 255), (P.CW_SLOPE, 0), (P.CCW_SLOPE, 255), (P.GOAL, 1024),
-    (P.SPEED, 1024), (P.TORQUE_LIMIT, 1024), (P.REGISTERED, 2), (P.LOCK, 0), (P.PUNCH, 1024),
+    (T.ID, 254), (T.BAUD_RATE, 255), (T.RETURN_DELAY_TIME, 255), (T.CW_ANGLE_LIMIT, 1024),
+    (T.CCW_ANGLE_LIMIT, 1024), (T.HIGHEST_LIMIT_TEMP, 151), (T.LOWEST_LIMIT_VOLTAGE, 49),
+    (T.LOWEST_LIMIT_VOLTAGE, 251), (T.HIGHEST_LIMIT_VOLTAGE, 49), (T.HIGHEST_LIMIT_VOLTAGE, 251),
+    (T.MAX_TORQUE, 1024), (T.STATUS_RETURN_LEVEL, 3), (T.ALARM_LED, 128), (T.ALARM_SHUTDOWN, 128),
+    (T.RESERVED_19, 2), (T.TORQUE_ENABLE, 2), (T.LED, 2), (T.CW_COMPLIANCE_MARGIN, 255),
+    (T.CCW_COMPLIANCE_MARGIN, 255), (T.CW_COMPLIANCE_SLOPE, 0), (T.CCW_COMPLIANCE_SLOPE, 255),
+    (T.GOAL_POSITION, 1024), (T.MOVING_SPEED, 1024), (T.TORQUE_LIMIT, 1024), (T.REGISTERED_INSTRUCTION, 2),
+    (T.LOCK, 0), (T.PUNCH, 1024),
     # read-only and reserved addresses, even with the value they already hold
-    (0, 12), (2, 1), (10, 0), (20, 0), (22, 0), (P.PRESENT_POSITION, 0), (P.PRESENT_SPEED, 0),
-    (P.PRESENT_LOAD, 0), (P.PRESENT_VOLTAGE, 0), (P.PRESENT_TEMPERATURE, 0), (45, 0),
-    (P.MOVING, 1),
+    (T.MODEL_NUMBER, 12), (T.FIRMWARE_VERSION, 1), (T.RESERVED_10, 0), (T.DOWN_CALIBRATION, 0),
+    (T.UP_CALIBRATION, 0), (T.PRESENT_POSITION, 0), (T.PRESENT_SPEED, 0), (T.PRESENT_LOAD, 0),
+    (T.PRESENT_VOLTAGE, 0), (T.PRESENT_TEMPERATURE, 0), (T.RESERVED_45, 0), (T.MOVING, 1),
 ]
 
 
@@ -263,8 +266,8 @@ OUT_OF_RANGE = [
 def test_out_of_range_write_is_a_range_error_and_changes_nothing(module_bus, addr, value):
     bus = module_bus
     before = bus.read(1, addr)
-    bus.write(1, addr, value, want_error=P.ERR_RANGE)
-    if addr not in range(36, 44):
+    bus.write(1, addr, value, want_error=T.ERR_RANGE)
+    if addr not in range(T.PRESENT_POSITION, T.PRESENT_TEMPERATURE + 1):   # Present*: they change
         assert bus.read(1, addr) == before
     assert bus.ping(1) == 12        # the error is an event: the next status packet is clean
 
@@ -279,19 +282,19 @@ def module_bus(module_emulators):
 
 
 def test_write_window_past_address_49_is_a_range_error(one):
-    result, error = one.ph.writeTxRx(one.port, 1, 49, 2, [1, 0])
-    assert (result, error) == (COMM_SUCCESS, P.ERR_RANGE)
+    result, error = one.ph.writeTxRx(one.port, 1, T.TABLE_SIZE - 1, 2, [1, 0])
+    assert (result, error) == (COMM_SUCCESS, T.ERR_RANGE)
 
 
 def test_write_is_atomic_one_bad_item_rejects_the_whole_packet(one):
-    goal = one.read(1, P.GOAL)
+    goal = one.read(1, T.GOAL_POSITION)
     new_goal = 700 if goal != 700 else 300
     # Goal Position (valid) + Moving Speed 1024 (invalid in joint mode), one packet.
     data = [DXL_LOBYTE(new_goal), DXL_HIBYTE(new_goal), DXL_LOBYTE(1024), DXL_HIBYTE(1024)]
-    result, error = one.ph.writeTxRx(one.port, 1, P.GOAL, 4, data)
-    assert (result, error) == (COMM_SUCCESS, P.ERR_RANGE)
-    assert one.read(1, P.GOAL) == goal
-    assert one.read(1, P.SPEED) == 0
+    result, error = one.ph.writeTxRx(one.port, 1, T.GOAL_POSITION, 4, data)
+    assert (result, error) == (COMM_SUCCESS, T.ERR_RANGE)
+    assert one.read(1, T.GOAL_POSITION) == goal
+    assert one.read(1, T.MOVING_SPEED) == 0
 
 
 # ---------------------------------------------------------------------------------------------
@@ -299,33 +302,33 @@ def test_write_is_atomic_one_bad_item_rejects_the_whole_packet(one):
 # ---------------------------------------------------------------------------------------------
 
 def test_goal_outside_the_angle_limits_is_stored_with_the_angle_limit_bit(one):
-    one.write(1, P.GOAL, 512)
-    one.write(1, P.CW_LIMIT, 200)
-    one.write(1, P.CCW_LIMIT, 800)
-    one.write(1, P.GOAL, 100, want_error=P.ERR_ANGLE)
+    one.write(1, T.GOAL_POSITION, 512)
+    one.write(1, T.CW_ANGLE_LIMIT, 200)
+    one.write(1, T.CCW_ANGLE_LIMIT, 800)
+    one.write(1, T.GOAL_POSITION, 100, want_error=T.ERR_ANGLE_LIMIT)
     # Stored, and the condition holds in every status packet while the goal lies outside.
-    assert one.read(1, P.GOAL, want_error=P.ERR_ANGLE) == 100
-    _, result, error = one.raw(1, 0x01)            # PING
-    assert (result, error) == (COMM_SUCCESS, P.ERR_ANGLE)
-    one.write(1, P.GOAL, 900, want_error=P.ERR_ANGLE)
-    one.write(1, P.GOAL, 500)                      # inside again: the bit clears
-    assert one.read(1, P.GOAL) == 500
+    assert one.read(1, T.GOAL_POSITION, want_error=T.ERR_ANGLE_LIMIT) == 100
+    _, result, error = one.raw(1, T.INST_PING)
+    assert (result, error) == (COMM_SUCCESS, T.ERR_ANGLE_LIMIT)
+    one.write(1, T.GOAL_POSITION, 900, want_error=T.ERR_ANGLE_LIMIT)
+    one.write(1, T.GOAL_POSITION, 500)             # inside again: the bit clears
+    assert one.read(1, T.GOAL_POSITION) == 500
     # Moving a limit so that the stored goal falls outside raises the condition too.
-    one.write(1, P.CW_LIMIT, 600, want_error=P.ERR_ANGLE)
-    one.write(1, P.CW_LIMIT, 0)
-    assert one.read(1, P.CW_LIMIT) == 0
+    one.write(1, T.CW_ANGLE_LIMIT, 600, want_error=T.ERR_ANGLE_LIMIT)
+    one.write(1, T.CW_ANGLE_LIMIT, 0)
+    assert one.read(1, T.CW_ANGLE_LIMIT) == 0
 
 
 def test_any_goal_in_wheel_mode_sets_the_angle_limit_bit(one):
-    one.write(1, P.CCW_LIMIT, 0)                   # CW = CCW = 0: wheel mode
-    one.write(1, P.GOAL, 512, want_error=P.ERR_ANGLE)
-    assert one.read(1, P.GOAL, want_error=P.ERR_ANGLE) == 512
+    one.write(1, T.CCW_ANGLE_LIMIT, 0)             # CW = CCW = 0: wheel mode
+    one.write(1, T.GOAL_POSITION, 512, want_error=T.ERR_ANGLE_LIMIT)
+    assert one.read(1, T.GOAL_POSITION, want_error=T.ERR_ANGLE_LIMIT) == 512
     # Moving Speed accepts 0..2047 in wheel mode.
-    one.write(1, P.SPEED, 1024 + 300, want_error=P.ERR_ANGLE)
-    assert one.read(1, P.SPEED, want_error=P.ERR_ANGLE) == 1324
-    one.write(1, P.SPEED, 0, want_error=P.ERR_ANGLE)
-    one.write(1, P.CCW_LIMIT, 1023)                # back to joint mode: goal 512 is inside
-    assert one.read(1, P.GOAL) == 512
+    one.write(1, T.MOVING_SPEED, 1024 + 300, want_error=T.ERR_ANGLE_LIMIT)
+    assert one.read(1, T.MOVING_SPEED, want_error=T.ERR_ANGLE_LIMIT) == 1324
+    one.write(1, T.MOVING_SPEED, 0, want_error=T.ERR_ANGLE_LIMIT)
+    one.write(1, T.CCW_ANGLE_LIMIT, 1023)          # back to joint mode: goal 512 is inside
+    assert one.read(1, T.GOAL_POSITION) == 512
 
 
 # ---------------------------------------------------------------------------------------------
@@ -333,19 +336,19 @@ def test_any_goal_in_wheel_mode_sets_the_angle_limit_bit(one):
 # ---------------------------------------------------------------------------------------------
 
 def test_status_return_level_1_answers_read_only_and_0_answers_ping_only(one):
-    one.write(1, P.SRL, 1)                         # answered: the old level (2) applies
-    assert one.read(1, P.SRL) == 1
-    result, _ = one.ph.write1ByteTxRx(one.port, 1, P.LED, 1)
+    one.write(1, T.STATUS_RETURN_LEVEL, 1)         # answered: the old level (2) applies
+    assert one.read(1, T.STATUS_RETURN_LEVEL) == 1
+    result, _ = one.ph.write1ByteTxRx(one.port, 1, T.LED, 1)
     assert result == COMM_RX_TIMEOUT               # WRITE: no reply at level 1 ...
-    assert one.read(1, P.LED) == 1                 # ... but applied
-    one.write_no_reply(1, P.SRL, 0)
-    _, result, _ = one.ph.read1ByteTxRx(one.port, 1, P.SRL)
+    assert one.read(1, T.LED) == 1                 # ... but applied
+    one.write_no_reply(1, T.STATUS_RETURN_LEVEL, 0)
+    _, result, _ = one.ph.read1ByteTxRx(one.port, 1, T.STATUS_RETURN_LEVEL)
     assert result == COMM_RX_TIMEOUT               # READ: no reply at level 0
-    _, result, error = one.raw(1, 0x01)            # PING still answered
+    _, result, error = one.raw(1, T.INST_PING)     # PING still answered
     assert (result, error) == (COMM_SUCCESS, 0)
-    one.write_no_reply(1, P.SRL, 2)
-    assert one.read(1, P.SRL) == 2
-    one.write(1, P.LED, 0)
+    one.write_no_reply(1, T.STATUS_RETURN_LEVEL, 2)
+    assert one.read(1, T.STATUS_RETURN_LEVEL) == 2
+    one.write(1, T.LED, 0)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -353,63 +356,64 @@ def test_status_return_level_1_answers_read_only_and_0_answers_ping_only(one):
 # ---------------------------------------------------------------------------------------------
 
 def test_reg_write_then_action_applies_the_registered_write(one):
-    goal = one.read(1, P.GOAL)
+    goal = one.read(1, T.GOAL_POSITION)
     new_goal = 300 if goal != 300 else 700
-    result, error = one.ph.regWriteTxRx(one.port, 1, P.GOAL, 2,
+    result, error = one.ph.regWriteTxRx(one.port, 1, T.GOAL_POSITION, 2,
                                         [DXL_LOBYTE(new_goal), DXL_HIBYTE(new_goal)])
     assert (result, error) == (COMM_SUCCESS, 0)
-    assert one.read(1, P.REGISTERED) == 1
-    assert one.read(1, P.GOAL) == goal             # not yet
+    assert one.read(1, T.REGISTERED_INSTRUCTION) == 1
+    assert one.read(1, T.GOAL_POSITION) == goal    # not yet
     assert one.ph.action(one.port, 1) == COMM_SUCCESS
-    assert one.read(1, P.GOAL) == new_goal
-    assert one.read(1, P.REGISTERED) == 0
+    assert one.read(1, T.GOAL_POSITION) == new_goal
+    assert one.read(1, T.REGISTERED_INSTRUCTION) == 0
 
 
 def test_action_with_nothing_registered_is_an_instruction_error(one):
     # The SDK's action() returns no error byte; txRxPacket sends the same ACTION packet.
-    _, result, error = one.raw(1, 0x05)
-    assert (result, error) == (COMM_SUCCESS, P.ERR_INSTRUCTION)
+    _, result, error = one.raw(1, T.INST_ACTION)
+    assert (result, error) == (COMM_SUCCESS, T.ERR_INSTRUCTION)
 
 
 def test_reg_write_is_validated_at_once_and_a_new_one_replaces_the_old(one):
-    result, error = one.ph.regWriteTxRx(one.port, 1, P.GOAL, 2, [0x00, 0x04])   # 1024
-    assert (result, error) == (COMM_SUCCESS, P.ERR_RANGE)
-    assert one.read(1, P.REGISTERED) == 0
-    one.ph.regWriteTxRx(one.port, 1, P.LED, 1, [1])
-    result, error = one.ph.regWriteTxRx(one.port, 1, P.PUNCH, 2, [64, 0])
+    result, error = one.ph.regWriteTxRx(one.port, 1, T.GOAL_POSITION, 2, [0x00, 0x04])  # 1024
+    assert (result, error) == (COMM_SUCCESS, T.ERR_RANGE)
+    assert one.read(1, T.REGISTERED_INSTRUCTION) == 0
+    one.ph.regWriteTxRx(one.port, 1, T.LED, 1, [1])
+    result, error = one.ph.regWriteTxRx(one.port, 1, T.PUNCH, 2, [64, 0])
     assert (result, error) == (COMM_SUCCESS, 0)
     assert one.ph.action(one.port, 1) == COMM_SUCCESS
-    assert one.read(1, P.PUNCH) == 64
-    assert one.read(1, P.LED) == 0                 # replaced, never applied
+    assert one.read(1, T.PUNCH) == 64
+    assert one.read(1, T.LED) == 0                 # replaced, never applied
 
 
 def test_writing_0_to_registered_instruction_discards_the_registered_write(one):
-    one.ph.regWriteTxRx(one.port, 1, P.LED, 1, [1])
-    assert one.read(1, P.REGISTERED) == 1
-    one.write(1, P.REGISTERED, 0)
-    assert one.read(1, P.REGISTERED) == 0
-    _, result, error = one.raw(1, 0x05)
-    assert (result, error) == (COMM_SUCCESS, P.ERR_INSTRUCTION)
-    assert one.read(1, P.LED) == 0
+    one.ph.regWriteTxRx(one.port, 1, T.LED, 1, [1])
+    assert one.read(1, T.REGISTERED_INSTRUCTION) == 1
+    one.write(1, T.REGISTERED_INSTRUCTION, 0)
+    assert one.read(1, T.REGISTERED_INSTRUCTION) == 0
+    _, result, error = one.raw(1, T.INST_ACTION)
+    assert (result, error) == (COMM_SUCCESS, T.ERR_INSTRUCTION)
+    assert one.read(1, T.LED) == 0
 
 
 def test_broadcast_action_applies_every_servos_registered_write(emulators, bus_factory):
     ids = P.parse_ids("1-6")
     bus = bus_factory(emulators(ids="1-6").path)
     for i in ids:
-        result, error = bus.ph.regWriteTxRx(bus.port, i, P.GOAL, 2, [DXL_LOBYTE(100 + 50 * i),
+        result, error = bus.ph.regWriteTxRx(bus.port, i, T.GOAL_POSITION, 2, [DXL_LOBYTE(100 + 50 * i),
                                                                      DXL_HIBYTE(100 + 50 * i)])
         assert (result, error) == (COMM_SUCCESS, 0), f"id {i}"
     assert bus.ph.action(bus.port, BROADCAST_ID) == COMM_SUCCESS
     settle(bus.port)
     for i in ids:
-        assert bus.read(i, P.GOAL) == 100 + 50 * i, f"id {i}"
-        assert bus.read(i, P.REGISTERED) == 0, f"id {i}"
+        assert bus.read(i, T.GOAL_POSITION) == 100 + 50 * i, f"id {i}"
+        assert bus.read(i, T.REGISTERED_INSTRUCTION) == 0, f"id {i}"
 
 
 def test_unknown_instruction_is_an_instruction_error(one):
+    assert 0x07 not in T.INSTRUCTIONS
     _, result, error = one.raw(1, 0x07)
-    assert (result, error) == (COMM_SUCCESS, P.ERR_INSTRUCTION)
+    assert (result, error) == (COMM_SUCCESS, T.ERR_INSTRUCTION)
 
 
 def test_bulk_read_is_not_an_ax12_instruction(emulators, bus_factory):
@@ -417,7 +421,7 @@ def test_bulk_read_is_not_an_ax12_instruction(emulators, bus_factory):
     (The SDK's GroupBulkRead cannot send it for Protocol 1.0 in 4.1.0: it calls
     bulkReadTx with four arguments; the packet handler's bulkReadTx is used directly.)"""
     bus = bus_factory(emulators(ids="1-2").path)
-    assert bus.ph.bulkReadTx(bus.port, [2, 1, P.GOAL, 2, 2, P.GOAL], 6) == COMM_SUCCESS
+    assert bus.ph.bulkReadTx(bus.port, [2, 1, T.GOAL_POSITION, 2, 2, T.GOAL_POSITION], 6) == COMM_SUCCESS
     _, result, _ = bus.ph.readRx(bus.port, 1, 2)
     assert result == COMM_RX_TIMEOUT
     assert bus.ping(1) == 12 and bus.ping(2) == 12
@@ -426,9 +430,9 @@ def test_bulk_read_is_not_an_ax12_instruction(emulators, bus_factory):
 def test_factory_reset_restores_defaults_and_id_1(emulators, bus_factory):
     emu = emulators(ids="7")
     bus = bus_factory(emu.path)
-    bus.write(7, P.RDT, 10)
-    bus.write(7, P.CCW_LIMIT, 900)
-    bus.write(7, P.LED, 1)
+    bus.write(7, T.RETURN_DELAY_TIME, 10)
+    bus.write(7, T.CCW_ANGLE_LIMIT, 900)
+    bus.write(7, T.LED, 1)
     result, error = bus.ph.factoryReset(bus.port, 7)   # the reply comes from ID 7
     assert (result, error) == (COMM_SUCCESS, 0), bus.ph.getTxRxResult(result)
     settle(bus.port)
@@ -436,14 +440,14 @@ def test_factory_reset_restores_defaults_and_id_1(emulators, bus_factory):
     assert not bus.answers(7)
     for item in P.TABLE:
         want = P.default(item, "ax12")
-        if item.addr < P.EEPROM_END and want is not P.RUNTIME:
+        if item.addr < T.EEPROM_SIZE and want is not P.RUNTIME:
             assert bus.read(1, item.addr) == want, item.name
     # Persisted: still ID 1 after a power cycle.
     bus.close()
     emu.restart()
     bus = bus_factory(emu.path)
     assert bus.ping(1) == 12
-    assert bus.read(1, P.RDT) == 250
+    assert bus.read(1, T.RETURN_DELAY_TIME) == 250
 
 
 def test_factory_reset_after_every_eeprom_item_changed_is_answered_in_time(emulators,
@@ -452,10 +456,11 @@ def test_factory_reset_after_every_eeprom_item_changed_is_answered_in_time(emula
     last byte, so the SDK's factoryReset() (34 ms timeout) gets its status packet however much
     EEPROM the reset has to rewrite."""
     bus = bus_factory(emulators(ids="1").path)
-    bus.write(1, P.GOAL, 512)
+    bus.write(1, T.GOAL_POSITION, 512)
     values = _writable_values(bus)
-    for addr in (P.RDT, P.CW_LIMIT, P.CCW_LIMIT, P.TEMP_LIMIT, P.LOW_VOLT, P.HIGH_VOLT,
-                 P.MAX_TORQUE, P.ALARM_LED, P.ALARM_SHUTDOWN, 19):
+    for addr in (T.RETURN_DELAY_TIME, T.CW_ANGLE_LIMIT, T.CCW_ANGLE_LIMIT, T.HIGHEST_LIMIT_TEMP,
+                 T.LOWEST_LIMIT_VOLTAGE, T.HIGHEST_LIMIT_VOLTAGE, T.MAX_TORQUE, T.ALARM_LED, T.ALARM_SHUTDOWN,
+                 T.RESERVED_19):
         bus.write(1, addr, values[addr])
     t0 = time.perf_counter()
     result, error = bus.ph.factoryReset(bus.port, 1)
@@ -463,8 +468,8 @@ def test_factory_reset_after_every_eeprom_item_changed_is_answered_in_time(emula
     assert (result, error) == (COMM_SUCCESS, 0), (
         f"factoryReset: {bus.ph.getTxRxResult(result)} after {elapsed_ms:.1f} ms")
     settle(bus.port, 0.2)
-    assert bus.read(1, P.RDT) == 250
-    assert bus.read(1, P.CCW_LIMIT) == 1023
+    assert bus.read(1, T.RETURN_DELAY_TIME) == 250
+    assert bus.read(1, T.CCW_ANGLE_LIMIT) == 1023
 
 
 # ---------------------------------------------------------------------------------------------
@@ -473,10 +478,10 @@ def test_factory_reset_after_every_eeprom_item_changed_is_answered_in_time(emula
 
 def test_id_change_replies_with_the_old_id_then_answers_at_the_new_one(emulators, bus_factory):
     bus = bus_factory(emulators(ids="3").path)
-    bus.write(3, P.ID, 9)          # the SDK only accepts a status packet from ID 3
+    bus.write(3, T.ID, 9)          # the SDK only accepts a status packet from ID 3
     settle(bus.port)
     assert bus.ping(9) == 12
-    assert bus.read(9, P.ID) == 9
+    assert bus.read(9, T.ID) == 9
     assert not bus.answers(3)
 
 
@@ -486,17 +491,17 @@ def test_baud_change_then_reconnect_at_the_new_rate(emulators, bus_factory, valu
     assert abs(P.baud_of(value) - host_baud) / host_baud < 0.03
     path = emulators(ids="1").path
     bus = bus_factory(path)
-    bus.write(1, P.BAUD, value)    # answered at the old rate (1 Mbps)
+    bus.write(1, T.BAUD_RATE, value)  # answered at the old rate (1 Mbps)
     settle(bus.port)
     assert bus.port.setBaudRate(host_baud)
     assert bus.ping(1) == 12
-    assert bus.read(1, P.BAUD) == value
+    assert bus.read(1, T.BAUD_RATE) == value
     # At the old rate nothing gets through any more.
     assert bus.port.setBaudRate(BAUD_1M)
     assert not bus.answers(1)
     # Back to 1 Mbps, set from the new rate.
     assert bus.port.setBaudRate(host_baud)
-    bus.write(1, P.BAUD, 1)
+    bus.write(1, T.BAUD_RATE, 1)
     settle(bus.port)
     assert bus.port.setBaudRate(BAUD_1M)
     assert bus.ping(1) == 12
@@ -510,44 +515,44 @@ def test_ping_finds_every_servo_on_a_multi_servo_bus(emulators, bus_factory):
     bus = bus_factory(emulators(ids="1-6").path)
     for i in P.parse_ids("1-6"):
         assert bus.ping(i) == 12
-        assert bus.read(i, P.ID) == i
+        assert bus.read(i, T.ID) == i
     assert not bus.answers(7)
 
 
 def test_group_sync_write_reaches_every_servo(emulators, bus_factory):
     ids = P.parse_ids("1-6")
     bus = bus_factory(emulators(ids="1-6").path)
-    sw = GroupSyncWrite(bus.port, bus.ph, P.GOAL, 2)
+    sw = GroupSyncWrite(bus.port, bus.ph, T.GOAL_POSITION, 2)
     for i in ids:
         goal = 200 + 100 * i
         assert sw.addParam(i, [DXL_LOBYTE(goal), DXL_HIBYTE(goal)])
     assert sw.txPacket() == COMM_SUCCESS
     settle(bus.port)               # broadcast: no status packets
     for i in ids:
-        assert bus.read(i, P.GOAL) == 200 + 100 * i, f"id {i}"
+        assert bus.read(i, T.GOAL_POSITION) == 200 + 100 * i, f"id {i}"
 
     # Goal Position and Moving Speed together (4 bytes per servo).
-    sw4 = GroupSyncWrite(bus.port, bus.ph, P.GOAL, 4)
+    sw4 = GroupSyncWrite(bus.port, bus.ph, T.GOAL_POSITION, 4)
     for i in ids:
         sw4.addParam(i, [DXL_LOBYTE(1000 - 10 * i), DXL_HIBYTE(1000 - 10 * i),
                          DXL_LOBYTE(50 * i), DXL_HIBYTE(50 * i)])
     assert sw4.txPacket() == COMM_SUCCESS
     settle(bus.port)
     for i in ids:
-        assert bus.read(i, P.GOAL) == 1000 - 10 * i, f"id {i}"
-        assert bus.read(i, P.SPEED) == 50 * i, f"id {i}"
+        assert bus.read(i, T.GOAL_POSITION) == 1000 - 10 * i, f"id {i}"
+        assert bus.read(i, T.MOVING_SPEED) == 50 * i, f"id {i}"
 
 
 def test_sync_write_slice_out_of_range_is_dropped_for_that_servo_only(emulators, bus_factory):
     bus = bus_factory(emulators(ids="1-2").path)
-    goal1 = bus.read(1, P.GOAL)
-    sw = GroupSyncWrite(bus.port, bus.ph, P.GOAL, 2)
+    goal1 = bus.read(1, T.GOAL_POSITION)
+    sw = GroupSyncWrite(bus.port, bus.ph, T.GOAL_POSITION, 2)
     sw.addParam(1, [0x00, 0x04])           # 1024: out of range for servo 1
     sw.addParam(2, [0x20, 0x01])           # 288: fine for servo 2
     assert sw.txPacket() == COMM_SUCCESS
     settle(bus.port)
-    assert bus.read(1, P.GOAL) == goal1
-    assert bus.read(2, P.GOAL) == 288
+    assert bus.read(1, T.GOAL_POSITION) == goal1
+    assert bus.read(2, T.GOAL_POSITION) == 288
 
 
 # ---------------------------------------------------------------------------------------------
@@ -557,19 +562,19 @@ def test_sync_write_slice_out_of_range_is_dropped_for_that_servo_only(emulators,
 def test_lock_allows_only_addresses_24_to_35_until_a_power_cycle(emulators, bus_factory):
     emu = emulators(ids="1")
     bus = bus_factory(emu.path)
-    bus.write(1, P.LOCK, 1)
-    assert bus.read(1, P.LOCK) == 1
-    bus.write(1, P.LED, 1)
-    bus.write(1, P.GOAL, 400)
-    bus.write(1, P.TORQUE_LIMIT, 500)
-    bus.write(1, P.RDT, 10, want_error=P.ERR_RANGE)
-    bus.write(1, P.PUNCH, 64, want_error=P.ERR_RANGE)
-    bus.write(1, P.LOCK, 1, want_error=P.ERR_RANGE)
-    assert bus.read(1, P.RDT) == 250
+    bus.write(1, T.LOCK, 1)
+    assert bus.read(1, T.LOCK) == 1
+    bus.write(1, T.LED, 1)
+    bus.write(1, T.GOAL_POSITION, 400)
+    bus.write(1, T.TORQUE_LIMIT, 500)
+    bus.write(1, T.RETURN_DELAY_TIME, 10, want_error=T.ERR_RANGE)
+    bus.write(1, T.PUNCH, 64, want_error=T.ERR_RANGE)
+    bus.write(1, T.LOCK, 1, want_error=T.ERR_RANGE)
+    assert bus.read(1, T.RETURN_DELAY_TIME) == 250
     result, error = bus.ph.factoryReset(bus.port, 1)
-    assert (result, error) == (COMM_SUCCESS, P.ERR_INSTRUCTION)
+    assert (result, error) == (COMM_SUCCESS, T.ERR_INSTRUCTION)
     bus.close()
     emu.restart()
     bus = bus_factory(emu.path)
-    assert bus.read(1, P.LOCK) == 0
-    bus.write(1, P.RDT, 10)
+    assert bus.read(1, T.LOCK) == 0
+    bus.write(1, T.RETURN_DELAY_TIME, 10)

@@ -8,6 +8,7 @@ from pyax12.connection import Connection
 from pyax12 import status_packet as sp
 
 import ax12_policy as P
+import ax12_table as T
 
 
 @pytest.fixture
@@ -31,22 +32,22 @@ def test_model_firmware_and_control_table(conn):
     assert conn.get_model_number(1) == 12
     assert conn.get_firmware_version(1) >= 0
     table = conn.dump_control_table(2)
-    assert len(table) == 50
-    assert table[0:2] == bytes([12, 0])
-    assert table[P.ID] == 2
-    assert table[P.RDT] == 250
-    assert table[P.SRL] == 2
+    assert len(table) == T.TABLE_SIZE
+    assert table[T.MODEL_NUMBER:T.MODEL_NUMBER + 2] == bytes([12, 0])
+    assert table[T.ID] == 2
+    assert table[T.RETURN_DELAY_TIME] == 250
+    assert table[T.STATUS_RETURN_LEVEL] == 2
 
 
 def test_read_data_and_write_data(conn):
-    assert conn.read_data(1, P.LED, 1) == bytes([0])
-    conn.write_data(1, P.LED, 1)
-    assert conn.read_data(1, P.LED, 1) == bytes([1])
+    assert conn.read_data(1, T.LED, 1) == bytes([0])
+    conn.write_data(1, T.LED, 1)
+    assert conn.read_data(1, T.LED, 1) == bytes([1])
     assert conn.is_led_enabled(1)
-    conn.write_data(1, P.PUNCH, bytes([0x40, 0x00]))
+    conn.write_data(1, T.PUNCH, bytes([0x40, 0x00]))
     assert conn.get_punch(1) == 64
-    conn.write_data(1, P.CW_MARGIN, (3, 5, 16, 64))     # margins and slopes, one packet
-    assert conn.read_data(1, P.CW_MARGIN, 4) == bytes([3, 5, 16, 64])
+    conn.write_data(1, T.CW_COMPLIANCE_MARGIN, (3, 5, 16, 64))  # margins and slopes, one packet
+    assert conn.read_data(1, T.CW_COMPLIANCE_MARGIN, 4) == bytes([3, 5, 16, 64])
 
 
 def test_present_position_and_goto(conn):
@@ -67,12 +68,12 @@ def test_eeprom_setters(conn):
     conn.set_return_delay_time(3, 100)      # microseconds: register 50
     assert conn.get_cw_angle_limit(3) == 100
     assert conn.get_ccw_angle_limit(3) == 900
-    assert conn.read_data(3, P.RDT, 1) == bytes([50])
+    assert conn.read_data(3, T.RETURN_DELAY_TIME, 1) == bytes([50])
 
 
 def test_out_of_range_write_raises_range_error(conn):
     with pytest.raises(sp.RangeError):
-        conn.write_data(1, P.GOAL, bytes([0x00, 0x04]))       # 1024
+        conn.write_data(1, T.GOAL_POSITION, bytes([0x00, 0x04]))  # 1024
     assert conn.get_goal_position(1) <= 1023
     assert conn.ping(1)                                       # an event, not a condition
 
@@ -84,7 +85,7 @@ def test_goal_outside_angle_limits_raises_angle_limit_error(conn):
         conn.goto(2, 100)
     # The goal is stored, and the condition stays in every status packet meanwhile.
     with pytest.raises(sp.AngleLimitError):
-        conn.read_data(2, P.GOAL, 2)
+        conn.read_data(2, T.GOAL_POSITION, 2)
     conn.goto(2, 512)
     assert conn.get_goal_position(2) == 512
 
@@ -102,7 +103,7 @@ def test_eeprom_writes_of_up_to_four_changed_bytes_are_answered_within_pyax12s_2
     value survives a power cut; up to four changed bytes (e.g. both angle limits) fit in
     pyax12's 20 ms. RAM writes are answered Return Delay Time after the packet."""
     settings = bytes([100, 55, 150, 0x20, 0x03])   # addresses 11..15: four bytes change
-    conn.write_data(1, P.TEMP_LIMIT, settings)
-    assert conn.read_data(1, P.TEMP_LIMIT, len(settings)) == settings
-    conn.write_data(1, P.RDT, bytes([20, 100, 0, 0x84, 0x03]))       # addresses 5..9
-    assert conn.read_data(1, P.RDT, 5) == bytes([20, 100, 0, 0x84, 0x03])
+    conn.write_data(1, T.HIGHEST_LIMIT_TEMP, settings)
+    assert conn.read_data(1, T.HIGHEST_LIMIT_TEMP, len(settings)) == settings
+    conn.write_data(1, T.RETURN_DELAY_TIME, bytes([20, 100, 0, 0x84, 0x03]))  # addresses 5..9
+    assert conn.read_data(1, T.RETURN_DELAY_TIME, 5) == bytes([20, 100, 0, 0x84, 0x03])

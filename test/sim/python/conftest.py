@@ -1,22 +1,25 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""Helpers for the ax12-emu tests: start `ax12-emu serve`, wait for its `ready:` line, build
-Dynamixel Protocol 1.0 packets. ctest sets AX12_EMU and AX12_FIRMWARE_DIR."""
+"""Helpers for the ax12-emu tests: start `ax12-emu serve`, wait for its `ready:` line. ctest
+sets AX12_EMU, AX12_FIRMWARE_DIR and PYTHONPATH (the packets of python/ax12_packets.py, the
+table generated from ct_items.h); run by hand, the table of build/ is used."""
 import os
 import select
 import signal
 import subprocess
+import sys
 import time
 
 import pytest
 
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+sys.path.insert(0, os.path.join(REPO, "python"))
+import ax12_build  # noqa: E402
+
+ax12_build.ensure(os.path.join(REPO, "build"))
+
 EMU = os.environ.get("AX12_EMU", "")
 FIRMWARE_DIR = os.environ.get("AX12_FIRMWARE_DIR", "")
 FIRMWARE_REQUIRED = os.environ.get("AX12_FIRMWARE_REQUIRED", "1") == "1"
-
-
-def packet(ident, instruction, params=b""):
-    body = bytes([ident, len(params) + 2, instruction]) + bytes(params)
-    return b"\xff\xff" + body + bytes([(~sum(body)) & 0xFF])
 
 
 class Emulator:

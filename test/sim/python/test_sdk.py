@@ -3,6 +3,8 @@
 ping, model number, a write and a read back, as a user would through the pty."""
 import dynamixel_sdk as sdk
 
+import ax12_table as T
+
 
 def open_port(device):
     port = sdk.PortHandler(device)
@@ -19,11 +21,11 @@ def test_the_sdk_pings_and_reads_model_number_12(emulator, tmp_path):
         assert result == sdk.COMM_SUCCESS, handler.getTxRxResult(result)
         assert error == 0
         assert model == 12
-        value, result, error = handler.read2ByteTxRx(port, 1, 0)
+        value, result, error = handler.read2ByteTxRx(port, 1, T.MODEL_NUMBER)
         assert (value, result, error) == (12, sdk.COMM_SUCCESS, 0)
-        result, error = handler.write1ByteTxRx(port, 1, 25, 1)  # LED on
+        result, error = handler.write1ByteTxRx(port, 1, T.LED, 1)
         assert (result, error) == (sdk.COMM_SUCCESS, 0)
-        value, result, error = handler.read1ByteTxRx(port, 1, 25)
+        value, result, error = handler.read1ByteTxRx(port, 1, T.LED)
         assert (value, result, error) == (1, sdk.COMM_SUCCESS, 0)
         _, result, _ = handler.ping(port, 2)
         assert result == sdk.COMM_RX_TIMEOUT

@@ -8,9 +8,11 @@ import time
 import pytest
 import serial
 
-from conftest import EMU, FIRMWARE_DIR, packet
+import ax12_table as T
+from ax12_packets import instruction_packet as packet, parse, status_packet
+from conftest import EMU, FIRMWARE_DIR
 
-PING_REPLY = {ident: packet(ident, 0) for ident in range(254)}
+PING_REPLY = {ident: status_packet(ident, 0) for ident in range(254)}
 
 
 def transact(port, request, reply_len, timeout=1.0):
@@ -21,9 +23,11 @@ def transact(port, request, reply_len, timeout=1.0):
 
 
 def read_byte(port, ident, addr):
-    reply = transact(port, packet(ident, 0x02, [addr, 1]), 7)
-    assert reply[:5] == bytes([0xFF, 0xFF, ident, 3, 0]), reply.hex()
-    return reply[5]
+    reply = transact(port, packet(ident, T.INST_READ, [addr, 1]), 7)
+    status = parse(reply)
+    assert status and status.checksum_ok, reply.hex()
+    assert (status.ident, status.code, len(status.params)) == (ident, 0, 1), reply.hex()
+    return status.params[0]
 
 
 @pytest.mark.parametrize("mode", ["--fast", "--realtime"])
@@ -31,14 +35,14 @@ def test_a_write_survives_sigkill_right_after_its_reply(emulator, tmp_path, mode
     state = tmp_path / "state"
     emu = emulator(mode, "--state-dir", str(state))
     with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
-        assert transact(port, packet(1, 0x01), 6) == PING_REPLY[1]
-        reply = transact(port, packet(1, 0x03, [5, 37]), 6)  # Return Delay Time = 37
+        assert transact(port, packet(1, T.INST_PING), 6) == PING_REPLY[1]
+        reply = transact(port, packet(1, T.INST_WRITE, [T.RETURN_DELAY_TIME, 37]), 6)
         os.kill(emu.proc.pid, 9)  # at once: no clean shutdown
         assert reply == PING_REPLY[1]
     emu.proc.wait(timeout=10)
     emu = emulator(mode, "--state-dir", str(state))
     with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
-        assert read_byte(port, 1, 5) == 37
+        assert read_byte(port, 1, T.RETURN_DELAY_TIME) == 37
 
 
 def test_sigterm_exits_cleanly_and_removes_the_link(emulator, tmp_path):
@@ -46,22 +50,22 @@ def test_sigterm_exits_cleanly_and_removes_the_link(emulator, tmp_path):
     emu = emulator("--fast", "--state-dir", str(tmp_path / "state"), "--link", str(link))
     assert os.path.islink(link) and os.readlink(link) == emu.device
     with serial.Serial(str(link), 1000000, timeout=1.0) as port:
-        assert transact(port, packet(1, 0x01), 6) == PING_REPLY[1]
-        assert transact(port, packet(1, 0x03, [17, 0x24]), 6) == PING_REPLY[1]  # Alarm LED
+        assert transact(port, packet(1, T.INST_PING), 6) == PING_REPLY[1]
+        assert transact(port, packet(1, T.INST_WRITE, [T.ALARM_LED, 0x24]), 6) == PING_REPLY[1]
     assert emu.stop() == 0
     assert not os.path.lexists(link)
     assert (tmp_path / "state" / "servo-1.eeprom").stat().st_size == 512
     emu = emulator("--fast", "--state-dir", str(tmp_path / "state"))
     with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
-        assert read_byte(port, 1, 17) == 0x24
+        assert read_byte(port, 1, T.ALARM_LED) == 0x24
 
 
 def test_every_listed_id_is_its_own_servo(emulator, tmp_path):
     emu = emulator("--fast", "--ids", "1-3,7,10", "--state-dir", str(tmp_path))
     with serial.Serial(emu.device, 1000000, timeout=0.3) as port:
         for ident in (1, 2, 3, 7, 10):
-            assert transact(port, packet(ident, 0x01), 6) == PING_REPLY[ident]
-        assert transact(port, packet(4, 0x01), 6, timeout=0.1) == b""
+            assert transact(port, packet(ident, T.INST_PING), 6) == PING_REPLY[ident]
+        assert transact(port, packet(4, T.INST_PING), 6, timeout=0.1) == b""
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
         f"servo-{i}.eeprom" for i in (1, 2, 3, 7, 10))
 
@@ -69,9 +73,9 @@ def test_every_listed_id_is_its_own_servo(emulator, tmp_path):
 def test_fresh_servos_start_at_the_baud_asked_for(emulator, tmp_path):
     emu = emulator("--fast", "--baud", "34", "--state-dir", str(tmp_path))
     with serial.Serial(emu.device, 57600, timeout=0.5) as port:
-        assert transact(port, packet(1, 0x01), 6) == PING_REPLY[1]
+        assert transact(port, packet(1, T.INST_PING), 6) == PING_REPLY[1]
     with serial.Serial(emu.device, 1000000, timeout=0.2) as port:
-        assert transact(port, packet(1, 0x01), 6, timeout=0.2) != PING_REPLY[1]
+        assert transact(port, packet(1, T.INST_PING), 6, timeout=0.2) != PING_REPLY[1]
 
 
 def test_bit_error_rate_corrupts_some_replies_and_the_stats_count_it(emulator, tmp_path):
@@ -79,7 +83,7 @@ def test_bit_error_rate_corrupts_some_replies_and_the_stats_count_it(emulator, t
     outcomes = {"clean": 0, "not clean": 0}
     with serial.Serial(emu.device, 1000000, timeout=0.05) as port:
         for _ in range(100):
-            reply = transact(port, packet(1, 0x01), 6, timeout=0.05)
+            reply = transact(port, packet(1, T.INST_PING), 6, timeout=0.05)
             outcomes["clean" if reply == PING_REPLY[1] else "not clean"] += 1
     assert emu.stop() == 0
     # About 10 % of bytes corrupted: most 12-byte exchanges survive, many do not.

@@ -8,7 +8,9 @@ import time
 import pytest
 import serial
 
-from conftest import EMU, packet
+import ax12_table as T
+from ax12_packets import instruction_packet as packet, parse
+from conftest import EMU
 
 
 def transact(port, request, reply_len, timeout=1.0):
@@ -18,32 +20,35 @@ def transact(port, request, reply_len, timeout=1.0):
     return port.read(reply_len)
 
 
-def read(port, addr, n):
-    reply = transact(port, packet(1, 0x02, [addr, n]), 6 + n)
-    assert reply[:4] == bytes([0xFF, 0xFF, 1, 2 + n]), reply.hex()
-    return reply[5] if n == 1 else reply[5] | (reply[6] << 8)
+def read(port, addr):
+    """The item at addr of servo 1, whole (one or two bytes)."""
+    n = T.BY_ADDR[addr].size
+    reply = transact(port, packet(1, T.INST_READ, [addr, n]), 6 + n)
+    status = parse(reply)
+    assert status and status.ident == 1 and len(status.params) == n, reply.hex()
+    return int.from_bytes(bytes(status.params), "little")
 
 
 def write(port, addr, *data):
-    assert len(transact(port, packet(1, 0x03, [addr, *data]), 6)) == 6
+    assert len(transact(port, packet(1, T.INST_WRITE, [addr, *data]), 6)) == 6
 
 
 def test_the_world_options_reach_the_servo(emulator, tmp_path):
     emu = emulator("--fast", "--state-dir", str(tmp_path), "--supply", "12", "--ambient", "40",
                    "--angle", "60")
     with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
-        assert read(port, 42, 1) == 120                   # Present Voltage, V x 10 (0.1 ohm, 35 mA)
-        assert 40 <= read(port, 43, 1) <= 41             # Present Temperature
-        assert abs(read(port, 36, 2) - 205) <= 1         # 60 deg = count 204.8
+        assert read(port, T.PRESENT_VOLTAGE) == 120       # V x 10 (0.1 ohm, 35 mA)
+        assert 40 <= read(port, T.PRESENT_TEMPERATURE) <= 41
+        assert abs(read(port, T.PRESENT_POSITION) - 205) <= 1  # 60 deg = count 204.8
 
 
 def test_a_goal_write_moves_the_output(emulator, tmp_path):
     emu = emulator("--fast", "--state-dir", str(tmp_path))
     with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
-        write(port, 24, 1)                                # Torque Enable
-        write(port, 30, 700 & 0xFF, 700 >> 8)             # Goal Position 700
+        write(port, T.TORQUE_ENABLE, 1)
+        write(port, T.GOAL_POSITION, 700 & 0xFF, 700 >> 8)
         deadline = time.monotonic() + 20
-        while abs(read(port, 36, 2) - 700) > 3 or read(port, 46, 1):
+        while abs(read(port, T.PRESENT_POSITION) - 700) > 3 or read(port, T.MOVING):
             assert time.monotonic() < deadline
             time.sleep(0.01)
 
@@ -53,7 +58,7 @@ def test_a_load_arm_pulls_a_limp_output_down(emulator, tmp_path):
     emu = emulator("--fast", "--state-dir", str(tmp_path), "--load-arm", "0.2,0.1")
     with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
         deadline = time.monotonic() + 20
-        while read(port, 36, 2) > 400:
+        while read(port, T.PRESENT_POSITION) > 400:
             assert time.monotonic() < deadline
             time.sleep(0.01)
 
