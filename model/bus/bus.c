@@ -287,7 +287,7 @@ static void finalize_one(bus_t *bus, bus_byte_t x) {
     if (mismatch || (x.flags & (BUS_RX_COLLISION | BUS_RX_TRUNCATED))) {
       rx.value = bus_decode(group, count, frame_start, rx_cpb);
       if (mismatch && rx.value == sent) {
-        rx.value ^= 0x80u; /* POLICY.md: a link off by more than 3 % does not communicate */
+        rx.value ^= 0x80u; /* docs/policy.md: a link off by more than 3 % does not communicate */
       }
     } else {
       rx.value = x.value;

@@ -19,13 +19,16 @@ master_reply_t master_exchange(const master_requester_t *requester, const uint8_
     while (*m->now < limit && master_rx_count(m) < expect) {
       run_until(requester, *m->now + wait->poll_step);
     }
+    /* Straight to the end of the quiet time (one call when nothing more comes), again when a
+     * byte came meanwhile. */
+    const sim_cycles_t talk_end = limit + wait->talk_limit;
     while (wait->quiet_after) {
       const size_t n = master_rx_count(m);
-      const sim_cycles_t last = n ? master_rx(m, n - 1u)->end : sent_end;
-      if (*m->now >= last + wait->quiet_after || *m->now >= limit + wait->talk_limit) {
+      const sim_cycles_t quiet_end = (n ? master_rx(m, n - 1u)->end : sent_end) + wait->quiet_after;
+      if (*m->now >= quiet_end || *m->now >= talk_end) {
         break;
       }
-      run_until(requester, *m->now + wait->poll_step);
+      run_until(requester, quiet_end < talk_end ? quiet_end : talk_end);
     }
   }
   const bus_rx_t *first = master_rx(m, 0);

@@ -18,7 +18,7 @@ typedef void (*master_run_until_fn)(void *scheduler, sim_cycles_t t);
 
 /* How long a request waits, all in simulated cycles. */
 typedef struct {
-  sim_cycles_t poll_step;     /* the simulation runs this far between looks at the reply */
+  sim_cycles_t poll_step;     /* the simulation runs this far between looks for the reply */
   sim_cycles_t reply_timeout; /* after the request's last stop bit: the expected bytes come by then or never */
   sim_cycles_t quiet_after;   /* then on until the line has been quiet this long after its last byte
                                * (bytes beyond the expected ones are collected too); 0: stop at once */

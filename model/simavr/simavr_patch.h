@@ -18,6 +18,9 @@ struct avr_t;
 struct avr_uart_t;
 
 /* ---- I/O register handlers (avr->io[]) ----
+ * simavr 1.6's public calls (avr_register_io_read/write) give no way to wrap the handler a
+ * register has: call it from the new one, or not (the EECR hook must not let simavr store a
+ * byte silicon ignores), so the handler table is edited here.
  * A write hook replaces the register's handler and keeps the one it replaced, so the new
  * handler can chain to it; a read or write takeover replaces it for good. Users: the EECR
  * hook (servo_eeprom.c), the USART (uart_link.c), Timer0 (quiet_timer.c). */

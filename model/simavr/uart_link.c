@@ -162,6 +162,9 @@ static uint16_t fifo_entry(const bus_rx_t *rx) {
   return (uint16_t)(rx->value | ((rx->flags & BUS_RX_FRAMING_ERROR) ? UART_INPUT_FE : 0u));
 }
 
+/* simavr 1.6 paces a received byte by its own byte time from the moment it is handed over;
+ * here the bus hands it over at the end of its stop bit (rx_due), and it enters the FIFO at
+ * once, or sets DOR when the FIFO's three places are taken. */
 static void receive(uart_link_t *link, const bus_rx_t *rx) {
   avr_t *avr = link->avr;
   avr_uart_t *u = link->uart;

@@ -426,7 +426,7 @@ static void test_packets_on_both_sides_of_the_sniff_bounds_are_handled_alike(voi
   harness_close(&h);
 }
 
-/* Another servo's packet is parsed to its end by its LENGTH and ignored (POLICY.md "Framing
+/* Another servo's packet is parsed to its end by its LENGTH and ignored (docs/policy.md "Framing
  * and bus"): the RX ISR skips its bytes from the LENGTH on. What follows it at once is heard
  * from its first byte (a READ right behind it is armed), whatever its parameters hold (a
  * READ of this servo inside them is no packet), and a packet cut short swallows the next
