@@ -7,6 +7,7 @@
 
 #include "bench_commands.h"
 #include "bench_rig.h"
+#include "bench_workload.h"
 
 /* Where the firmware's cycles go: the awake share and the cycle profile by instruction. */
 

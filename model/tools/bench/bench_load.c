@@ -4,6 +4,7 @@
 
 #include "bench_commands.h"
 #include "bench_rig.h"
+#include "bench_workload.h"
 #include "dxl_protocol.h"
 
 /* Load: back-to-back SYNC_WRITEs (bytes lost), and the simulation's speed idle and under the

@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* ax12-bench's rig: a world of servos on one firmware ELF with a master at 1 Mbps, the
- * requests the measurements make (through model/bus/master_request.h), and the client
- * loop of the issue (a SYNC_WRITE of goals, then a READ of every servo). */
+ * requests the measurements make (through model/bus/master_request.h). The traffic they
+ * put on the bus is in bench_workload.h. */
 #ifndef BENCH_RIG_H
 #define BENCH_RIG_H
 
@@ -50,19 +50,5 @@ void bench_write_byte(bench_rig_t *r, uint8_t id, uint8_t addr, uint8_t value);
 
 /* A RAM counter of the firmware (bytes little-endian), by symbol; -1 when the ELF lacks it. */
 long bench_firmware_counter(const servo_t *s, const char *symbol, unsigned bytes);
-
-/* A SYNC_WRITE to servos 1..servos from address 30: Goal Position only (2 bytes each, the
- * issue's client loop, LENGTH 94 for 30 servos), or Goal Position and Moving Speed 0 (4 bytes
- * each, 158 bytes for 30: the longest packet of the sustained load). The goals alternate
- * with phase's parity. Returns the packet's size. */
-size_t bench_sync_write_goals(uint8_t *out, unsigned servos, unsigned phase, bool with_speed);
-
-/* Torque on in servos 1..servos (one SYNC_WRITE), as the SDK loop (scripts/bench.py) does. */
-void bench_torque_on_all(bench_rig_t *r, unsigned servos);
-
-/* The client loop of the issue until simulated time `until`: one SYNC_WRITE of goal
- * positions, then a READ of Present Position from every servo, waiting for each reply.
- * Returns the loops completed. */
-unsigned bench_client_loops(bench_rig_t *r, unsigned servos, sim_cycles_t until);
 
 #endif

@@ -7,6 +7,7 @@
 
 #include "bench_commands.h"
 #include "bench_rig.h"
+#include "bench_workload.h"
 #include "dxl_protocol.h"
 
 /* The deepest stack after a workload of every instruction. */
