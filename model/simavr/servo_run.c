@@ -44,10 +44,10 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
   }
   if (avr->state == cpu_Sleeping && !avr->interrupt_state && simavr_first_timer_when(avr) >= t) {
     servo->sleep_cycles += t - avr->cycle; /* nothing wakes it before t: the usual case */
-    avr->cycle = t;
+    simavr_set_clock(avr, t);
     return;
   }
-  avr->run_cycle_limit = 1; /* a re-clamp ends the batch (simavr_step_core) */
+  simavr_end_batches_at_timer_changes(avr);
   const sim_cycles_t until = servo->single_step || servo->probe_pc ? 0 : t; /* the profile: 0 too */
   while (!servo->halted && avr->cycle < t) {
     /* simavr 1.6's own sleep would land one cycle past the next timer and could jump past t:
@@ -56,12 +56,12 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
       const sim_cycles_t next = simavr_first_timer_when(avr);
       if (next >= t) {
         servo->sleep_cycles += t - avr->cycle;
-        avr->cycle = t;
+        simavr_set_clock(avr, t);
         break;
       }
       if (next > avr->cycle) {
         servo->sleep_cycles += next - avr->cycle;
-        avr->cycle = next;
+        simavr_set_clock(avr, next);
       }
     }
     if (__builtin_expect(servo->pc_cycles != NULL, 0)) {

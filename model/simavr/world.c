@@ -12,6 +12,7 @@
 #include "servo_plant.h"
 #include "servo_run.h"
 #include "sim_log.h"
+#include "simavr_patch_run.h"
 #include "world_threads.h"
 
 world_t *world_create(const char *elf_path, const char *mcu, eeprom_profile_t profile, char *err, size_t err_len) {
@@ -87,7 +88,7 @@ static servo_t *add(world_t *world, servo_config_t *config, char *err, size_t er
     return NULL;
   }
   /* A servo joins at the world's time: its clock starts there. */
-  servo->avr->cycle = world->now;
+  simavr_set_clock(servo->avr, world->now);
   servo->persist_due = &world->persist_due;
   servo->plant_due = &world->plant_due;
   world->servos[world->servo_count++] = servo;
