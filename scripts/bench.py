@@ -131,8 +131,8 @@ def main():
     a = ap.parse_args()
     ax12_build.use(a.build)
     fw = os.path.join(a.build, "firmware")
-    bench = os.path.join(a.build, "model", "bench", "ax12-bench")
-    emu = os.path.join(a.build, "model", "sim", "ax12-emu")
+    bench = os.path.join(a.build, "model", "tools", "ax12-bench")
+    emu = os.path.join(a.build, "model", "tools", "ax12-emu")
     elf = os.path.join(fw, "ax12-ax12-atmega88.elf")
     runs = 1 if a.quick else 3
     r = {}
@@ -221,7 +221,7 @@ def main():
     report = os.path.join(os.path.dirname(os.path.abspath(__file__)), "model_report")
     if os.path.exists(report):
         try:
-            m = run_json([report, "--json", "--lab", os.path.join(a.build, "model", "sim", "ax12-lab")])
+            m = run_json([report, "--json", "--lab", os.path.join(a.build, "model", "tools", "ax12-lab")])
             for key, value in sorted(m.items()):
                 r["model_" + key] = value
                 if not key.endswith("_ratio"):

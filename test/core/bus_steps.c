@@ -10,20 +10,8 @@
 #include <cmocka.h>
 
 #include "conformance_log.h"
-#include "packet_build.h"
+#include "packet_encode.h"
 #include "dxl_protocol.h"
-
-uint8_t ref_checksum(const uint8_t *id_length_body, size_t count) {
-  unsigned sum = 0;
-  for (size_t i = 0; i < count; i++) {
-    sum += id_length_body[i];
-  }
-  return (uint8_t)(~sum & 0xFFu);
-}
-
-size_t build_packet(uint8_t *out, uint8_t id, uint8_t code, const uint8_t *params, size_t count) {
-  return packet_build(out, id, code, params, count);
-}
 
 void given_bus(host_bus_t *bus, uint8_t id) { given_bus_of(bus, &id, 1); }
 
@@ -34,7 +22,7 @@ void given_bus_of(host_bus_t *bus, const uint8_t *ids, size_t count) {
 void when_master_sends(host_bus_t *bus, uint8_t id, uint8_t instruction, const uint8_t *params, size_t count) {
   uint8_t packet[STEPS_PACKET_MAX];
   assert_true(count <= 253u);
-  const size_t length = build_packet(packet, id, instruction, params, count);
+  const size_t length = packet_encode(packet, id, instruction, params, count);
   host_bus_send(bus, packet, length);
 }
 
@@ -42,23 +30,19 @@ void when_master_sends_bytes(host_bus_t *bus, const uint8_t *bytes, size_t count
   host_bus_send(bus, bytes, count);
 }
 
-const char *hex_of(const uint8_t *bytes, size_t count, char *text, size_t text_len) {
-  return packet_hex(bytes, count, text, text_len);
-}
-
 void then_heard_bytes(const host_bus_t *bus, const uint8_t *bytes, size_t count) {
   if (bus->heard_len != count || (count != 0 && memcmp(bus->heard, bytes, count) != 0)) {
     char want[1024];
     char got[1024];
-    fail_msg("expected %s, heard %s", hex_of(bytes, count, want, sizeof want),
-             hex_of(bus->heard, bus->heard_len, got, sizeof got));
+    fail_msg("expected %s, heard %s", packet_hex(bytes, count, want, sizeof want),
+             packet_hex(bus->heard, bus->heard_len, got, sizeof got));
   }
   assert_false(bus->collision);
 }
 
 void then_status_is(const host_bus_t *bus, uint8_t id, uint8_t error, const uint8_t *params, size_t count) {
   uint8_t packet[STEPS_PACKET_MAX];
-  const size_t length = build_packet(packet, id, error, params, count);
+  const size_t length = packet_encode(packet, id, error, params, count);
   then_heard_bytes(bus, packet, length);
 }
 
@@ -114,8 +98,8 @@ bool conv_replay_step(host_bus_t *bus, const conv_t *conv, const conv_step_t *st
   char want[1024];
   char got[1024];
   snprintf(msg, msg_len, "%s:%u: sent %s\n  expected %s\n  heard    %s%s", conv->path,
-           step->expect_line != 0 ? step->expect_line : step->line, hex_of(step->send, step->send_len, sent, sizeof sent),
-           hex_of(step->expect, step->expect_len, want, sizeof want), hex_of(bus->heard, bus->heard_len, got, sizeof got),
+           step->expect_line != 0 ? step->expect_line : step->line, packet_hex(step->send, step->send_len, sent, sizeof sent),
+           packet_hex(step->expect, step->expect_len, want, sizeof want), packet_hex(bus->heard, bus->heard_len, got, sizeof got),
            bus->collision ? " (replies collided)" : "");
   return false;
 }

@@ -1,5 +1,5 @@
 /* Protocol steps for the core tests, named after what the master does and sees:
- * build packets (checksums computed here, independently of the core), send them on a host bus,
+ * build packets (model/bus/packet_encode.h, independent of the core), send them on a host bus,
  * and expect a status packet or silence. The expect_* steps are cmocka assertions.
  *
  *   given_bus(&bus, 1);                               one factory-fresh servo, ID 1
@@ -16,6 +16,7 @@
 
 #include "conversation.h"
 #include "host_bus.h"
+#include "packet_encode.h"
 
 /* A parameter list: P(a, b, ...) or NO_PARAMS, expanding to (pointer, count). */
 #define P(...) (const uint8_t[]){__VA_ARGS__}, sizeof((const uint8_t[]){__VA_ARGS__})
@@ -24,12 +25,8 @@
 #define STEPS_PACKET_MAX 300u
 #define GAP_THAT_DISCARDS_MS (DXL_PACKET_GAP_TIMEOUT_MS + 1u)
 
-/* Protocol 1.0 checksum, written here from the manual, not taken from the core. */
-uint8_t ref_checksum(const uint8_t *id_length_body, size_t count);
-
-/* FF FF id LENGTH code params... checksum; returns the byte count. code is the instruction
- * (instruction packet) or the error byte (status packet). */
-size_t build_packet(uint8_t *out, uint8_t id, uint8_t code, const uint8_t *params, size_t count);
+/* Packets are built with model/bus/packet_encode.h (packet_encode, packet_checksum,
+ * packet_hex): the manual's encoding, independent of the core. */
 
 /* A bus of factory-fresh servos at 1 Mbps, 25 degrees C. */
 void given_bus(host_bus_t *bus, uint8_t id);
@@ -50,9 +47,6 @@ void given_write(host_bus_t *bus, uint8_t id, uint8_t addr, const uint8_t *data,
 dxl_servo_t *servo_of(host_bus_t *bus, uint8_t id);
 uint8_t table_byte(host_bus_t *bus, uint8_t id, uint8_t addr);
 uint16_t table_word(host_bus_t *bus, uint8_t id, uint8_t addr);
-
-/* Hex text of bytes, for messages ("(none)" when count is 0). */
-const char *hex_of(const uint8_t *bytes, size_t count, char *text, size_t text_len);
 
 /* Conversation replay on a host bus. conv_bus_init sets the bus up as the file says;
  * conv_replay_step runs one step and returns false with a message when what came back differs. */

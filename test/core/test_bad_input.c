@@ -131,7 +131,7 @@ static void log_runs(void *context, const host_bus_t *bus, const host_bus_event_
 
 static bool is_valid_packet(const uint8_t *bytes, size_t length) {
   return length >= 6 && bytes[0] == 0xFF && bytes[1] == 0xFF && bytes[2] != 0xFF && length == 4u + bytes[3] &&
-         ref_checksum(&bytes[2], length - 3u) == bytes[length - 1];
+         packet_checksum(&bytes[2], length - 3u) == bytes[length - 1];
 }
 
 static bool contains(const uint8_t *haystack, size_t n, const uint8_t *needle, size_t m) {
@@ -195,7 +195,7 @@ static void flip_one(const loaded_conv_t *lc, size_t s, size_t byte, unsigned bi
   if (log.count == 0) {
     if (!only_checksum_errors(bus.heard, bus.heard_len)) {
       char heard[1024];
-      fail_msg("%s: nothing ran, yet the master heard %s", context, hex_of(bus.heard, bus.heard_len, heard, sizeof heard));
+      fail_msg("%s: nothing ran, yet the master heard %s", context, packet_hex(bus.heard, bus.heard_len, heard, sizeof heard));
     }
     if (memcmp(before, after, bus.servo_count * CT_SIZE) != 0) {
       fail_msg("%s: nothing ran, yet a table changed", context);
@@ -326,28 +326,28 @@ static size_t build_inserted(stream_t *s, inserted_t *ins, uint8_t *packet) {
   ins->value = 0;
   switch (ins->kind) {
   case INS_PING_OWN:
-    return build_packet(packet, STREAM_ID, DXL_INST_PING, NO_PARAMS);
+    return packet_encode(packet, STREAM_ID, DXL_INST_PING, NO_PARAMS);
   case INS_PING_OTHER:
-    return build_packet(packet, other, DXL_INST_PING, NO_PARAMS);
+    return packet_encode(packet, other, DXL_INST_PING, NO_PARAMS);
   case INS_READ_LED:
-    return build_packet(packet, STREAM_ID, DXL_INST_READ, P(CT_ADDR_LED, 1));
+    return packet_encode(packet, STREAM_ID, DXL_INST_READ, P(CT_ADDR_LED, 1));
   case INS_READ_GOAL:
-    return build_packet(packet, STREAM_ID, DXL_INST_READ, P(CT_ADDR_GOAL_POSITION, 2));
+    return packet_encode(packet, STREAM_ID, DXL_INST_READ, P(CT_ADDR_GOAL_POSITION, 2));
   case INS_READ_MODEL:
-    return build_packet(packet, STREAM_ID, DXL_INST_READ, P(CT_ADDR_MODEL_NUMBER, 3));
+    return packet_encode(packet, STREAM_ID, DXL_INST_READ, P(CT_ADDR_MODEL_NUMBER, 3));
   case INS_WRITE_LED:
     ins->value = (uint16_t)(next_random(s) & 1u);
-    return build_packet(packet, STREAM_ID, DXL_INST_WRITE, P(CT_ADDR_LED, (uint8_t)ins->value));
+    return packet_encode(packet, STREAM_ID, DXL_INST_WRITE, P(CT_ADDR_LED, (uint8_t)ins->value));
   case INS_WRITE_GOAL:
     ins->value = (uint16_t)(next_random(s) % 1024u);
-    return build_packet(packet, STREAM_ID, DXL_INST_WRITE,
+    return packet_encode(packet, STREAM_ID, DXL_INST_WRITE,
                         P(CT_ADDR_GOAL_POSITION, (uint8_t)(ins->value & 0xFF), (uint8_t)(ins->value >> 8)));
   case INS_WRITE_LED_OTHER:
-    return build_packet(packet, other, DXL_INST_WRITE, P(CT_ADDR_LED, 1));
+    return packet_encode(packet, other, DXL_INST_WRITE, P(CT_ADDR_LED, 1));
   case INS_WRITE_LED_BROADCAST:
   default:
     ins->value = (uint16_t)(next_random(s) & 1u);
-    return build_packet(packet, DXL_ID_BROADCAST, DXL_INST_WRITE, P(CT_ADDR_LED, (uint8_t)ins->value));
+    return packet_encode(packet, DXL_ID_BROADCAST, DXL_INST_WRITE, P(CT_ADDR_LED, (uint8_t)ins->value));
   }
 }
 
@@ -427,7 +427,7 @@ static void oracle_fail(oracle_t *o, const char *what, uint64_t at) {
 
 static void expect_reply(oracle_t *o, const host_bus_event_t *e, const uint8_t *params, size_t count) {
   uint8_t status[STEPS_PACKET_MAX];
-  const size_t length = build_packet(status, STREAM_ID, 0, params, count);
+  const size_t length = packet_encode(status, STREAM_ID, 0, params, count);
   if (e->response->length != length || memcmp(e->response->bytes, status, length) != 0) {
     oracle_fail(o, "an inserted packet got the wrong reply", e->first_rx_index);
   }

@@ -282,7 +282,7 @@ static void test_the_longest_packet_length_255_is_found(void **state) {
     params[i] = (uint8_t)i;
   }
   uint8_t packet[STEPS_PACKET_MAX];
-  const size_t length = build_packet(packet, 1, DXL_INST_WRITE, params, sizeof params);
+  const size_t length = packet_encode(packet, 1, DXL_INST_WRITE, params, sizeof params);
   assert_int_equal(length, DXL_PACKET_MAX_BYTES);
   when_bytes_arrive(&run, packet, length);
   assert_int_equal(run.count, 1);
@@ -351,7 +351,7 @@ static size_t random_stream(uint8_t *out, size_t capacity, bool *gap_before, uin
     }
     const uint8_t params[3] = {(uint8_t)next_random(seed), (uint8_t)next_random(seed), 0xFF};
     uint8_t packet[16];
-    const size_t length = build_packet(packet, (uint8_t)(next_random(seed) % 4u), (uint8_t)(1u + next_random(seed) % 6u),
+    const size_t length = packet_encode(packet, (uint8_t)(next_random(seed) % 4u), (uint8_t)(1u + next_random(seed) % 6u),
                                        params, next_random(seed) % 4u);
     if (next_random(seed) % 8u == 0) {
       packet[length - 1] ^= 0x01; /* a bad checksum */

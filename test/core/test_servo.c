@@ -1083,7 +1083,7 @@ static void handle(dxl_servo_t *servo, uint8_t id, uint8_t instruction, const ui
   dxl_servo_handle(servo, &packet, response);
   if (conformance_enabled()) {
     uint8_t bytes[STEPS_PACKET_MAX];
-    const size_t length = build_packet(bytes, id, instruction, params, count);
+    const size_t length = packet_encode(bytes, id, instruction, params, count);
     char after[96] = "nothing";
     size_t used = 0;
     const struct {

@@ -12,7 +12,7 @@
 
 #include <cmocka.h>
 
-#include "packet_build.h"
+#include "master_request.h"
 
 #ifndef AX12_FIRMWARE_DIR
 #error "AX12_FIRMWARE_DIR must be defined by the build"
@@ -20,6 +20,13 @@
 #ifndef AX12_FIRMWARE_REQUIRED
 #define AX12_FIRMWARE_REQUIRED 1
 #endif
+
+/* Polled every 50 us; see sim_harness.h for the bounds. */
+static const master_wait_t harness_wait = {.poll_step = 50u * SIM_CYCLES_PER_US,
+                                           .reply_timeout = HARNESS_REPLY_TIMEOUT_MS * 1000u * SIM_CYCLES_PER_US,
+                                           .quiet_after = HARNESS_QUIET_US * SIM_CYCLES_PER_US,
+                                           .talk_limit = 10000u * SIM_CYCLES_PER_US,
+                                           .silence = HARNESS_SILENCE_MS * 1000u * SIM_CYCLES_PER_US};
 
 const char *harness_elf_path(const char *profile, const char *mcu) {
   static char path[1024];
@@ -44,8 +51,9 @@ void harness_open(harness_t *h, const char *profile, const char *mcu, unsigned m
   if (!h->world) {
     fail_msg("%s", err);
   }
-  h->master = master_create(h->world, sim_baud_reg_to_bps(master_baud));
+  h->master = world_add_master(h->world, sim_baud_reg_to_bps(master_baud));
   assert_non_null(h->master);
+  h->requester = world_requester(h->world, h->master, harness_wait);
 }
 
 void harness_close(harness_t *h) {
@@ -96,48 +104,17 @@ void harness_power_cycle(harness_t *h) {
   harness_boot(h, 5);
 }
 
-size_t harness_packet(uint8_t *out, uint8_t id, uint8_t instruction, const uint8_t *params, size_t count) {
-  return packet_build(out, id, instruction, params, count);
-}
-
 size_t harness_exchange(harness_t *h, const uint8_t *bytes, size_t count, size_t expect, uint8_t *reply,
                         size_t reply_max) {
-  world_t *w = h->world;
-  master_t *m = h->master;
-  master_rx_clear(m);
-  const sim_cycles_t sent_end = master_send(m, bytes, count);
-  world_run_until(w, sent_end);
-  const sim_cycles_t step = sim_us(50);
-  if (expect == 0) {
-    world_run_until(w, sent_end + sim_ms(HARNESS_SILENCE_MS));
-  } else {
-    const sim_cycles_t limit = sent_end + sim_ms(HARNESS_REPLY_TIMEOUT_MS);
-    while (w->now < limit && master_rx_count(m) < expect) {
-      world_run_until(w, w->now + step);
-    }
-    /* Then until the line has been quiet for a while (more bytes than expected count). */
-    for (;;) {
-      const size_t n = master_rx_count(m);
-      const sim_cycles_t last = n ? master_rx(m, n - 1u)->end : sent_end;
-      if (w->now >= last + sim_us(HARNESS_QUIET_US) || w->now >= limit + sim_ms(10)) {
-        break;
-      }
-      world_run_until(w, w->now + step);
-    }
-  }
-  return master_rx_values(m, reply, reply_max);
+  return master_exchange(&h->requester, bytes, count, expect, reply, reply_max).received;
 }
 
 size_t harness_request(harness_t *h, uint8_t id, uint8_t instruction, const uint8_t *params, size_t count,
                        size_t reply_len, uint8_t *reply) {
-  uint8_t packet[300];
-  const size_t n = harness_packet(packet, id, instruction, params, count);
   uint8_t scratch[HARNESS_MAX_REPLY];
-  return harness_exchange(h, packet, n, reply_len, reply ? reply : scratch, HARNESS_MAX_REPLY);
-}
-
-const char *harness_hex(const uint8_t *bytes, size_t count, char *text, size_t text_len) {
-  return packet_hex(bytes, count, text, text_len);
+  return master_request(&h->requester, id, instruction, params, count, reply_len, reply ? reply : scratch,
+                        HARNESS_MAX_REPLY)
+      .received;
 }
 
 void harness_tempdir(char *out, size_t len) {

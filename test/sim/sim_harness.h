@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Helpers for the simulator tests: a world of servos running the firmware ELF and a master
- * on the bus, packets built here (checksums written from the manual, not taken from the
- * firmware), and exchanges bounded by simulated time. */
+ * on the bus, and exchanges bounded by simulated time (model/bus/master_request.h; packets
+ * from model/bus/packet_encode.h, the manual's encoding, not the firmware's). */
 #ifndef SIM_HARNESS_H
 #define SIM_HARNESS_H
 
@@ -10,7 +10,14 @@
 #include <stdint.h>
 
 #include "master.h"
+#include "master_request.h"
+#include "packet_encode.h"
 #include "servo.h"
+#include "servo_eeprom.h"
+#include "servo_plant.h"
+#include "servo_profile.h"
+#include "servo_run.h"
+#include "servo_stack.h"
 #include "world.h"
 
 #define HARNESS_MAX_REPLY 1024u
@@ -26,6 +33,7 @@
 typedef struct {
   world_t *world;
   master_t *master;
+  master_requester_t requester; /* the master on the world, waits of HARNESS_* */
   char elf[1024];
 } harness_t;
 
@@ -47,9 +55,6 @@ void harness_boot(harness_t *h, unsigned settle_ms);
 /* Every servo's MCU restarts (EEPROM kept, RAM not), then boots. */
 void harness_power_cycle(harness_t *h);
 
-/* FF FF id LENGTH instruction params... checksum; returns the size. */
-size_t harness_packet(uint8_t *out, uint8_t id, uint8_t instruction, const uint8_t *params, size_t count);
-
 /* Sends bytes and collects what comes back: until expect bytes came and the line was quiet
  * for HARNESS_QUIET_US (expect 0: for HARNESS_SILENCE_MS). Returns how many came back;
  * their wire records stay in h->master. */
@@ -60,9 +65,6 @@ size_t harness_exchange(harness_t *h, const uint8_t *bytes, size_t count, size_t
  * number of bytes that came back. */
 size_t harness_request(harness_t *h, uint8_t id, uint8_t instruction, const uint8_t *params, size_t count,
                        size_t reply_len, uint8_t *reply);
-
-/* Hex text of bytes, for messages. */
-const char *harness_hex(const uint8_t *bytes, size_t count, char *text, size_t text_len);
 
 /* A fresh empty directory under /tmp for state files; harness_rmdir removes it. */
 void harness_tempdir(char *out, size_t len);

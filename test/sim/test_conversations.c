@@ -116,8 +116,8 @@ static void replay(void **state) {
       char got[1024];
       snprintf(err, sizeof(err), "%s:%u (%s, Baud Rate %u): sent %s\n  expected %s\n  heard    %s%s", conv.path,
                step->expect_line ? step->expect_line : step->line, r->profile, baud,
-               harness_hex(step->send, step->send_len, sent, sizeof(sent)),
-               harness_hex(step->expect, step->expect_len, want, sizeof(want)), harness_hex(heard, n, got, sizeof(got)),
+               packet_hex(step->send, step->send_len, sent, sizeof(sent)),
+               packet_hex(step->expect, step->expect_len, want, sizeof(want)), packet_hex(heard, n, got, sizeof(got)),
                clean ? "" : " (collided or garbled on the wire)");
       harness_close(&h);
       conv_free(&conv);

@@ -86,7 +86,7 @@ static void open_noisy_bus(noisy_bus_t *b) {
   memset(b, 0, sizeof(*b));
   harness_open(&b->h, "ax12", "atmega88", 1);
   b->servo = harness_add_servo(&b->h, 1, 1, NULL);
-  b->listener = master_create(b->h.world, sim_baud_reg_to_bps(1));
+  b->listener = world_add_master(b->h.world, sim_baud_reg_to_bps(1));
   assert_non_null(b->listener);
   harness_boot(&b->h, 5);
   /* Replies at once, so many exchanges fit in little simulated time. */
@@ -105,8 +105,8 @@ static void expect_bytes(const uint8_t *got, size_t got_len, const uint8_t *want
   if (got_len != want_len || memcmp(got, want, want_len) != 0) {
     char a[512];
     char c[512];
-    fail_msg("expected %s, heard %s", harness_hex(want, want_len, a, sizeof(a)),
-             harness_hex(got, got_len, c, sizeof(c)));
+    fail_msg("expected %s, heard %s", packet_hex(want, want_len, a, sizeof(a)),
+             packet_hex(got, got_len, c, sizeof(c)));
   }
 }
 
@@ -239,7 +239,7 @@ static void test_at_rate_zero_a_conversation_is_clean_and_unchanged(void **state
     uint8_t reference[TABLE_REPLY_LEN];
     read_reference_table(&b, reference);
     uint8_t packet[16];
-    const size_t len = harness_packet(packet, 1, DXL_INST_READ, HP(0, TABLE_SPAN));
+    const size_t len = packet_encode(packet, 1, DXL_INST_READ, HP(0, TABLE_SPAN));
     tally_t to_servo = {0};
     tally_t to_client = {0};
     for (unsigned i = 0; i < 200u; i++) {
@@ -299,7 +299,7 @@ static void stream_zeros(noisy_bus_t *b, tally_t *to_servo) {
 static void read_table_repeatedly(noisy_bus_t *b, const uint8_t *reference, tally_t *to_servo, tally_t *to_client,
                                   unsigned *unanswered, unsigned *collided) {
   uint8_t packet[16];
-  const size_t len = harness_packet(packet, 1, DXL_INST_READ, HP(0, TABLE_SPAN));
+  const size_t len = packet_encode(packet, 1, DXL_INST_READ, HP(0, TABLE_SPAN));
   unsigned misses_in_a_row = 0;
   for (unsigned i = 0; i < MEASURED_EXCHANGES; i++) {
     const size_t n = exchange(b, packet, len, TABLE_REPLY_LEN);
@@ -375,11 +375,7 @@ static bool heard_packet_at(const heard_stream_t *heard, size_t i, uint8_t *id, 
     return false;
   }
   const uint8_t length = s[i + 3u];
-  unsigned sum = 0;
-  for (size_t k = 2; k < 4u + length - 1u; k++) {
-    sum += s[i + k];
-  }
-  if ((uint8_t)~sum != s[i + 3u + length]) {
+  if (packet_checksum(&s[i + 2u], length + 1u) != s[i + 3u + length]) {
     return false;
   }
   *id = s[i + 2u];
@@ -448,19 +444,19 @@ static void send_noisy_packet(noisy_bus_t *b, unsigned i, heard_stream_t *heard)
   size_t reply_len;
   switch (i % 4u) {
   case 0:
-    len = harness_packet(packet, 1, DXL_INST_PING, H_NO_PARAMS);
+    len = packet_encode(packet, 1, DXL_INST_PING, H_NO_PARAMS);
     reply_len = STATUS_LEN(0);
     break;
   case 1:
-    len = harness_packet(packet, 1, DXL_INST_READ, HP(0, TABLE_SPAN));
+    len = packet_encode(packet, 1, DXL_INST_READ, HP(0, TABLE_SPAN));
     reply_len = TABLE_REPLY_LEN;
     break;
   case 2:
-    len = harness_packet(packet, 1, DXL_INST_WRITE, HP(ADDR_LED, (uint8_t)(i & 1u)));
+    len = packet_encode(packet, 1, DXL_INST_WRITE, HP(ADDR_LED, (uint8_t)(i & 1u)));
     reply_len = STATUS_LEN(0);
     break;
   default:
-    len = harness_packet(packet, 1, DXL_INST_WRITE, HP(ADDR_GOAL_POSITION, (uint8_t)i, 0x02));
+    len = packet_encode(packet, 1, DXL_INST_WRITE, HP(ADDR_GOAL_POSITION, (uint8_t)i, 0x02));
     reply_len = STATUS_LEN(0);
     break;
   }

@@ -26,7 +26,7 @@ static void expect_bytes(const uint8_t *got, size_t got_len, const uint8_t *want
   if (got_len != want_len || memcmp(got, want, want_len) != 0) {
     char a[512];
     char b[512];
-    fail_msg("expected %s, heard %s", harness_hex(want, want_len, a, sizeof(a)), harness_hex(got, got_len, b, sizeof(b)));
+    fail_msg("expected %s, heard %s", packet_hex(want, want_len, a, sizeof(a)), packet_hex(got, got_len, b, sizeof(b)));
   }
 }
 
@@ -34,7 +34,7 @@ static void expect_status(harness_t *h, const uint8_t *got, size_t got_len, uint
                           const uint8_t *params, size_t count) {
   (void)h;
   uint8_t want[64];
-  const size_t n = harness_packet(want, id, error, params, count);
+  const size_t n = packet_encode(want, id, error, params, count);
   expect_bytes(got, got_len, want, n);
 }
 
@@ -70,7 +70,7 @@ typedef struct {
 static wire_timing_t request_timing(harness_t *h, uint8_t id, uint8_t instruction, const uint8_t *params, size_t count,
                                     size_t reply_len) {
   uint8_t packet[16];
-  const size_t len = harness_packet(packet, id, instruction, params, count);
+  const size_t len = packet_encode(packet, id, instruction, params, count);
   master_rx_clear(h->master);
   const sim_cycles_t request_end = master_send(h->master, packet, len);
   uint8_t reply[64];
@@ -185,7 +185,7 @@ static void test_a_packet_cut_before_its_checksum_is_dropped_and_the_next_answer
   for (size_t r = 0; r < sizeof rdts; r++) {
     write_byte(&h, 1, 5, rdts[r]);
     uint8_t read[16];
-    const size_t len = harness_packet(read, 1, DXL_INST_READ, HP(36, 2));
+    const size_t len = packet_encode(read, 1, DXL_INST_READ, HP(36, 2));
     uint8_t reply[64];
     assert_int_equal(harness_exchange(&h, read, len - 1u, 0, reply, sizeof reply), 0); /* silence */
     world_run_until(h.world, h.world->now + sim_ms(120));
@@ -342,7 +342,7 @@ static void test_servos_on_one_wire_answer_their_own_ids_and_collide_on_broadcas
   const uint64_t collided = h.world->bus.collided_bytes;
   const size_t n = harness_request(&h, DXL_ID_BROADCAST, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0), reply);
   char text[256];
-  printf("broadcast PING, 3 servos: the master heard %s\n", harness_hex(reply, n, text, sizeof(text)));
+  printf("broadcast PING, 3 servos: the master heard %s\n", packet_hex(reply, n, text, sizeof(text)));
   assert_true(h.world->bus.collided_bytes > collided);
   assert_true(n > 0);
   assert_true(master_rx(h.master, 0)->flags & BUS_RX_COLLISION);
@@ -385,7 +385,7 @@ static void test_packets_on_both_sides_of_the_sniff_bounds_are_handled_alike(voi
   for (size_t extra = 0; extra <= 8; extra++) {
     uint8_t bytes[32];
     memset(bytes, 0xFF, extra);
-    const size_t len = extra + harness_packet(bytes + extra, 1, DXL_INST_READ, HP(3, 1));
+    const size_t len = extra + packet_encode(bytes + extra, 1, DXL_INST_READ, HP(3, 1));
     master_rx_clear(h.master);
     const sim_cycles_t request_end = master_send(h.master, bytes, len);
     world_run_until(h.world, request_end);
@@ -415,9 +415,9 @@ static void test_packets_on_both_sides_of_the_sniff_bounds_are_handled_alike(voi
       }
     }
     uint8_t bytes[160];
-    size_t len = harness_packet(bytes, DXL_ID_BROADCAST, DXL_INST_SYNC_WRITE, params, count);
+    size_t len = packet_encode(bytes, DXL_ID_BROADCAST, DXL_INST_SYNC_WRITE, params, count);
     assert_int_equal(bytes[3], 94u + 2u + k); /* LENGTH */
-    len += harness_packet(bytes + len, 1, DXL_INST_READ, HP(26, shapes[k].data_len));
+    len += packet_encode(bytes + len, 1, DXL_INST_READ, HP(26, shapes[k].data_len));
     uint8_t reply[64];
     const size_t n = harness_exchange(&h, bytes, len, STATUS_LEN(shapes[k].data_len), reply, sizeof reply);
     uint8_t want[3] = {(uint8_t)(0x20 + k), (uint8_t)(0x21 + k), (uint8_t)(0x22 + k)};
@@ -434,7 +434,7 @@ static void test_packets_on_both_sides_of_the_sniff_bounds_are_handled_alike(voi
 static void send_then_read(harness_t *h, const uint8_t *before, size_t before_len, bool expect_answer) {
   uint8_t bytes[160];
   memcpy(bytes, before, before_len);
-  const size_t len = before_len + harness_packet(bytes + before_len, 1, DXL_INST_READ, HP(3, 1));
+  const size_t len = before_len + packet_encode(bytes + before_len, 1, DXL_INST_READ, HP(3, 1));
   master_rx_clear(h->master);
   const sim_cycles_t request_end = master_send(h->master, bytes, len);
   world_run_until(h->world, request_end);
@@ -460,7 +460,7 @@ static void test_another_servos_packet_is_skipped_by_its_length(void **state) {
   /* Instructions and status packets of servo 7, LENGTH 2..96; the parameters hide a READ of
    * servo 1 (FF FF 01 04 02 03 01 F4). */
   uint8_t hidden[8];
-  (void)harness_packet(hidden, 1, DXL_INST_READ, HP(3, 1));
+  (void)packet_encode(hidden, 1, DXL_INST_READ, HP(3, 1));
   static const uint8_t param_counts[] = {0, 1, 2, 8, 20, 94};
   for (size_t k = 0; k < sizeof param_counts; k++) {
     uint8_t params[94];
@@ -468,7 +468,7 @@ static void test_another_servos_packet_is_skipped_by_its_length(void **state) {
       params[i] = hidden[i % sizeof hidden];
     }
     uint8_t other[128];
-    const size_t other_len = harness_packet(other, 7, DXL_INST_WRITE, params, param_counts[k]);
+    const size_t other_len = packet_encode(other, 7, DXL_INST_WRITE, params, param_counts[k]);
     send_then_read(&h, other, other_len, true);
   }
   /* Cut short: FF FF 07 LENGTH 5 and two of its five remaining bytes. */
@@ -498,13 +498,13 @@ static void test_the_sniff_reads_a_header_as_the_finder_would(void **state) {
   /* Another servo's packet longer than the sniff would hold (LENGTH 122) is skipped by its
    * LENGTH too: the READ of servo 1 in its parameters is not answered, the next one is. */
   uint8_t hidden[8];
-  (void)harness_packet(hidden, 1, DXL_INST_READ, HP(3, 1));
+  (void)packet_encode(hidden, 1, DXL_INST_READ, HP(3, 1));
   uint8_t params[120];
   for (size_t i = 0; i < sizeof params; i++) {
     params[i] = hidden[i % sizeof hidden];
   }
   uint8_t other[160];
-  const size_t other_len = harness_packet(other, 7, DXL_INST_WRITE, params, sizeof params);
+  const size_t other_len = packet_encode(other, 7, DXL_INST_WRITE, params, sizeof params);
   send_then_read(&h, other, other_len, true);
   /* A header that pauses (a client writing it byte by byte): the READ completes 50 ms after
    * its FF FF 01; after 150 ms the header is gone, and the READ that follows is heard whole. */

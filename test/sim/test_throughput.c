@@ -70,7 +70,7 @@ static size_t build_sync_write(unsigned packet, uint8_t out[SYNC_WRITE_PACKET_LE
     slot[0] = id;
     goal_and_speed_bytes(packet, id, &slot[1]);
   }
-  return harness_packet(out, DXL_ID_BROADCAST, DXL_INST_SYNC_WRITE, params, sizeof(params));
+  return packet_encode(out, DXL_ID_BROADCAST, DXL_INST_SYNC_WRITE, params, sizeof(params));
 }
 
 /* ---- Firmware RAM counters, found by symbol in the ELF. ---- */
@@ -220,12 +220,12 @@ static void open_bus_of_30(harness_t *h) {
 
 static void expect_reply(const uint8_t *got, size_t got_len, uint8_t id, const uint8_t *params, size_t count) {
   uint8_t want[64];
-  const size_t want_len = harness_packet(want, id, 0, params, count); /* error byte 0 */
+  const size_t want_len = packet_encode(want, id, 0, params, count); /* error byte 0 */
   if (got_len != want_len || memcmp(got, want, want_len) != 0) {
     char a[256];
     char b[256];
-    fail_msg("servo %u: expected %s, heard %s", id, harness_hex(want, want_len, a, sizeof(a)),
-             harness_hex(got, got_len, b, sizeof(b)));
+    fail_msg("servo %u: expected %s, heard %s", id, packet_hex(want, want_len, a, sizeof(a)),
+             packet_hex(got, got_len, b, sizeof(b)));
   }
 }
 

@@ -32,7 +32,7 @@ static void echo_open(echo_t *e, size_t servos, const char *state_path) {
   if (!e->world) {
     fail_msg("%s", err);
   }
-  e->master = master_create(e->world, 1000000.0);
+  e->master = world_add_master(e->world, 1000000.0);
   for (size_t i = 0; i < servos; i++) {
     e->servo[i] = world_add_servo(e->world, (uint8_t)(i + 1), 1, state_path, err, sizeof(err));
     if (!e->servo[i]) {

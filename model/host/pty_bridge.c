@@ -1,0 +1,369 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+#include "pty_bridge.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <pty.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include "pacing.h"
+#include "pty_baud.h"
+
+static double pty_cycles_per_bit(void *ctx) { return ((const pty_bridge_t *)ctx)->cycles_per_bit; }
+
+static void pty_deliver(void *ctx, const bus_rx_t *rx) {
+  pty_bridge_t *pty = ctx;
+  if (pty->out_count == pty->out_cap) {
+    const size_t cap = pty->out_cap ? pty->out_cap * 2u : 1024u;
+    pty_out_byte_t *grown = malloc(cap * sizeof(*grown));
+    if (!grown) {
+      abort();
+    }
+    for (size_t i = 0; i < pty->out_count; i++) {
+      grown[i] = pty->out[(pty->out_head + i) % pty->out_cap];
+    }
+    free(pty->out);
+    pty->out = grown;
+    pty->out_cap = cap;
+    pty->out_head = 0;
+  }
+  pty->out[(pty->out_head + pty->out_count) % pty->out_cap] = (pty_out_byte_t){.end = rx->end, .value = rx->value};
+  pty->out_count++;
+}
+
+static void refresh_baud(pty_bridge_t *pty) {
+  const double bps = pty_get_bps(pty->master_fd);
+  if (bps > 0.0 && bps != pty->bps) {
+    pty->bps = bps;
+    pty->cycles_per_bit = sim_bps_to_cycles_per_bit(bps);
+    bus_baud_changed(pty->bus);
+  }
+}
+
+static void set_nonblock(int fd) {
+  const int flags = fcntl(fd, F_GETFL);
+  (void)fcntl(fd, F_SETFL, flags | O_NONBLOCK);
+  (void)fcntl(fd, F_SETFD, FD_CLOEXEC);
+}
+
+/* The reader thread: drains the master as soon as the client writes, so nothing the client
+ * wrote is still in the pty when it flushes its output (tcflush) before the next packet. */
+static void *reader_main(void *arg) {
+  pty_bridge_t *pty = arg;
+  uint8_t buf[4096];
+  for (;;) {
+    uint32_t room;
+    pthread_mutex_lock(&pty->lock);
+    while (!pty->stopping &&
+           (pty->inbox_used == PTY_BRIDGE_INBOX_BYTES || pty->chunk_count == PTY_BRIDGE_INBOX_CHUNKS)) {
+      pthread_cond_wait(&pty->space, &pty->lock); /* the simulation is far behind the client */
+    }
+    const bool stopping = pty->stopping;
+    room = PTY_BRIDGE_INBOX_BYTES - pty->inbox_used;
+    pthread_mutex_unlock(&pty->lock);
+    if (stopping) {
+      break;
+    }
+    struct pollfd fds[2] = {{.fd = pty->master_fd, .events = POLLIN}, {.fd = pty->stop_pipe[0], .events = POLLIN}};
+    const int r = poll(fds, 2, -1);
+    if (r < 0) {
+      if (errno == EINTR) {
+        continue;
+      }
+      break;
+    }
+    if (fds[1].revents) {
+      break;
+    }
+    if (!fds[0].revents) {
+      continue;
+    }
+    const ssize_t n = read(pty->master_fd, buf, room < sizeof(buf) ? room : sizeof(buf));
+    if (n <= 0) {
+      if (n < 0 && (errno == EAGAIN || errno == EINTR)) {
+        continue;
+      }
+      /* EIO / hang-up cannot last (the bridge keeps a slave open); do not spin meanwhile. */
+      poll(&fds[1], 1, 1);
+      continue;
+    }
+    const double wall = pacing_wall_us();
+    const double bps = pty_get_bps(pty->master_fd); /* the speed the client set before writing */
+    pthread_mutex_lock(&pty->lock);
+    const uint32_t offset = (pty->inbox_head + pty->inbox_used) % PTY_BRIDGE_INBOX_BYTES;
+    for (ssize_t i = 0; i < n; i++) {
+      pty->inbox[(offset + (uint32_t)i) % PTY_BRIDGE_INBOX_BYTES] = buf[i];
+    }
+    pty->inbox_used += (uint32_t)n;
+    pty->chunks[(pty->chunk_head + pty->chunk_count) % PTY_BRIDGE_INBOX_CHUNKS] =
+        (pty_in_chunk_t){.wall_us = wall, .bps = bps, .offset = offset, .len = (uint32_t)n};
+    pty->chunk_count++;
+    pthread_mutex_unlock(&pty->lock);
+    const char wake = 1;
+    (void)!write(pty->wake_pipe[1], &wake, 1); /* a full pipe is awake already */
+  }
+  return NULL;
+}
+
+static int start_reader(pty_bridge_t *pty, char *err, size_t err_len) {
+  pty->inbox = malloc(PTY_BRIDGE_INBOX_BYTES);
+  if (!pty->inbox) {
+    snprintf(err, err_len, "out of memory");
+    return -1;
+  }
+  if (pipe(pty->stop_pipe) != 0 || pipe(pty->wake_pipe) != 0) {
+    snprintf(err, err_len, "pipe: %s", strerror(errno));
+    return -1;
+  }
+  set_nonblock(pty->stop_pipe[0]);
+  set_nonblock(pty->stop_pipe[1]);
+  set_nonblock(pty->wake_pipe[0]);
+  set_nonblock(pty->wake_pipe[1]);
+  /* Signals (SIGINT, SIGTERM...) go to the simulation thread, never to the reader. */
+  sigset_t all, old;
+  sigfillset(&all);
+  pthread_sigmask(SIG_SETMASK, &all, &old);
+  const int rc = pthread_create(&pty->reader, NULL, reader_main, pty);
+  pthread_sigmask(SIG_SETMASK, &old, NULL);
+  if (rc != 0) {
+    snprintf(err, err_len, "cannot start the pty reader: %s", strerror(rc));
+    return -1;
+  }
+  pty->reader_started = true;
+  return 0;
+}
+
+int pty_bridge_open(pty_bridge_t *pty, bus_t *bus, const sim_cycles_t *now, double initial_bps, const char *link_path,
+                    char *err, size_t err_len) {
+  memset(pty, 0, sizeof(*pty));
+  pty->master_fd = pty->slave_fd = -1;
+  pty->stop_pipe[0] = pty->stop_pipe[1] = pty->wake_pipe[0] = pty->wake_pipe[1] = -1;
+  pthread_mutex_init(&pty->lock, NULL);
+  pthread_cond_init(&pty->space, NULL);
+  pty->bus = bus;
+  pty->now = now;
+  struct termios raw;
+  memset(&raw, 0, sizeof(raw));
+  cfmakeraw(&raw);
+  raw.c_cflag |= CLOCAL | CREAD;
+  if (openpty(&pty->master_fd, &pty->slave_fd, pty->device, &raw, NULL) != 0) {
+    snprintf(err, err_len, "cannot open a pseudo-terminal: %s", strerror(errno));
+    return -1;
+  }
+  (void)fcntl(pty->master_fd, F_SETFD, FD_CLOEXEC);
+  (void)fcntl(pty->slave_fd, F_SETFD, FD_CLOEXEC);
+  const int flags = fcntl(pty->master_fd, F_GETFL);
+  (void)fcntl(pty->master_fd, F_SETFL, flags | O_NONBLOCK);
+  (void)pty_set_bps(pty->slave_fd, initial_bps);
+  pty->bps = initial_bps;
+  pty->cycles_per_bit = sim_bps_to_cycles_per_bit(initial_bps);
+  refresh_baud(pty);
+  const bus_node_ops_t ops = {.cycles_per_bit = pty_cycles_per_bit, .deliver = pty_deliver, .ctx = pty};
+  pty->node = bus_add_node(bus, "pty", &ops);
+  if (pty->node < 0) {
+    snprintf(err, err_len, "the bus is full");
+    pty_bridge_close(pty);
+    return -1;
+  }
+  if (link_path) {
+    struct stat st;
+    if (lstat(link_path, &st) == 0) {
+      if (!S_ISLNK(st.st_mode)) {
+        snprintf(err, err_len, "--link %s exists and is not a symlink", link_path);
+        pty_bridge_close(pty);
+        return -1;
+      }
+      (void)unlink(link_path);
+    }
+    if (symlink(pty->device, link_path) != 0) {
+      snprintf(err, err_len, "cannot create --link %s: %s", link_path, strerror(errno));
+      pty_bridge_close(pty);
+      return -1;
+    }
+    snprintf(pty->link_path, sizeof(pty->link_path), "%s", link_path);
+    pty->linked = true;
+  }
+  if (start_reader(pty, err, err_len) != 0) {
+    pty_bridge_close(pty);
+    return -1;
+  }
+  return 0;
+}
+
+void pty_bridge_close(pty_bridge_t *pty) {
+  if (pty->reader_started) {
+    pthread_mutex_lock(&pty->lock);
+    pty->stopping = true;
+    pthread_cond_signal(&pty->space);
+    pthread_mutex_unlock(&pty->lock);
+    const char stop = 1;
+    (void)!write(pty->stop_pipe[1], &stop, 1);
+    pthread_join(pty->reader, NULL);
+    pty->reader_started = false;
+  }
+  for (int i = 0; i < 2; i++) {
+    if (pty->stop_pipe[i] >= 0) {
+      close(pty->stop_pipe[i]);
+    }
+    if (pty->wake_pipe[i] >= 0) {
+      close(pty->wake_pipe[i]);
+    }
+    pty->stop_pipe[i] = pty->wake_pipe[i] = -1;
+  }
+  free(pty->inbox);
+  pty->inbox = NULL;
+  if (pty->linked) {
+    /* Only our own link: someone may have replaced it meanwhile. */
+    char target[sizeof(pty->device)];
+    const ssize_t n = readlink(pty->link_path, target, sizeof(target) - 1u);
+    if (n > 0) {
+      target[n] = '\0';
+      if (strcmp(target, pty->device) == 0) {
+        (void)unlink(pty->link_path);
+      }
+    }
+    pty->linked = false;
+  }
+  if (pty->master_fd >= 0) {
+    close(pty->master_fd);
+  }
+  if (pty->slave_fd >= 0) {
+    close(pty->slave_fd);
+  }
+  pty->master_fd = pty->slave_fd = -1;
+  free(pty->out);
+  pty->out = NULL;
+  pty->out_count = pty->out_cap = 0;
+}
+
+static bool write_due(pty_bridge_t *pty) {
+  const sim_cycles_t now = *pty->now;
+  uint8_t chunk[1024];
+  size_t n = 0;
+  while (pty->out_count && n < sizeof(chunk)) {
+    const pty_out_byte_t *b = &pty->out[pty->out_head];
+    if (b->end > now) {
+      break;
+    }
+    chunk[n++] = b->value;
+    pty->out_head = (pty->out_head + 1u) % pty->out_cap;
+    pty->out_count--;
+  }
+  if (n == 0) {
+    return false;
+  }
+  size_t done = 0;
+  while (done < n) {
+    const ssize_t w = write(pty->master_fd, chunk + done, n - done);
+    if (w < 0 && errno == EINTR) {
+      continue;
+    }
+    if (w <= 0) {
+      pty->dropped_to_client += n - done;
+      break;
+    }
+    done += (size_t)w;
+  }
+  pty->to_client += done;
+  return true;
+}
+
+static void use_client_bps(pty_bridge_t *pty, double bps) {
+  if (bps > 0.0 && bps != pty->bps) {
+    pty->bps = bps;
+    pty->cycles_per_bit = sim_bps_to_cycles_per_bit(bps);
+    bus_baud_changed(pty->bus);
+  }
+}
+
+/* Stamps newly queued chunks with their simulated arrival, then puts the due ones on the
+ * wire. Called with the lock held. */
+static bool take_client(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx, double wall_us), void *ctx) {
+  const sim_cycles_t now = *pty->now;
+  sim_cycles_t previous = now;
+  if (pty->chunk_stamped) {
+    previous = pty->chunks[(pty->chunk_head + pty->chunk_stamped - 1u) % PTY_BRIDGE_INBOX_CHUNKS].at;
+  }
+  for (uint32_t i = pty->chunk_stamped; i < pty->chunk_count; i++) {
+    pty_in_chunk_t *c = &pty->chunks[(pty->chunk_head + i) % PTY_BRIDGE_INBOX_CHUNKS];
+    sim_cycles_t at = now;
+    if (pty->anchored) {
+      const double since = c->wall_us - pty->anchor_wall_us;
+      sim_cycles_t target = pty->anchor_sim + (since > 0.0 ? (sim_cycles_t)(since * SIM_CYCLES_PER_US) : 0u);
+      if (sim_of_wall) {
+        const sim_cycles_t paced = sim_of_wall(ctx, c->wall_us);
+        if (paced < target) {
+          target = paced;
+        }
+      }
+      if (target > at) {
+        at = target;
+      }
+    }
+    if (at < previous) {
+      at = previous; /* keep the client's order */
+    }
+    c->at = previous = at;
+  }
+  pty->chunk_stamped = pty->chunk_count;
+
+  bool moved = false;
+  while (pty->chunk_count && pty->chunks[pty->chunk_head].at <= now) {
+    if (pty->last_from_client_end > now) {
+      const double queued = (double)(pty->last_from_client_end - now) / (pty->cycles_per_bit * 10.0);
+      if (queued > PTY_BRIDGE_MAX_QUEUED) {
+        break; /* the wire is far behind the client: wait, the inbox keeps the rest */
+      }
+    }
+    const pty_in_chunk_t *c = &pty->chunks[pty->chunk_head];
+    use_client_bps(pty, c->bps);
+    for (uint32_t i = 0; i < c->len; i++) {
+      pty->last_from_client_end =
+          bus_send(pty->bus, pty->node, pty->inbox[(c->offset + i) % PTY_BRIDGE_INBOX_BYTES], now);
+    }
+    pty->from_client += c->len;
+    pty->inbox_head = (pty->inbox_head + c->len) % PTY_BRIDGE_INBOX_BYTES;
+    pty->inbox_used -= c->len;
+    pty->chunk_head = (pty->chunk_head + 1u) % PTY_BRIDGE_INBOX_CHUNKS;
+    pty->chunk_count--;
+    pty->chunk_stamped--;
+    moved = true;
+  }
+  if (moved) {
+    pthread_cond_signal(&pty->space);
+  }
+  return moved;
+}
+
+bool pty_bridge_pump(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx, double wall_us), void *ctx) {
+  char drain[64];
+  while (read(pty->wake_pipe[0], drain, sizeof(drain)) > 0) {
+  }
+  refresh_baud(pty);
+  bool moved = write_due(pty);
+  const double wall = pacing_wall_us();
+  pthread_mutex_lock(&pty->lock);
+  moved |= take_client(pty, sim_of_wall, ctx);
+  pthread_mutex_unlock(&pty->lock);
+  pty->anchor_wall_us = wall;
+  pty->anchor_sim = *pty->now;
+  pty->anchored = true;
+  return moved;
+}
+
+sim_cycles_t pty_bridge_next_input(const pty_bridge_t *pty) {
+  pthread_mutex_t *lock = (pthread_mutex_t *)&pty->lock;
+  pthread_mutex_lock(lock);
+  const sim_cycles_t at = pty->chunk_stamped ? pty->chunks[pty->chunk_head].at : SIM_CYCLES_NEVER;
+  pthread_mutex_unlock(lock);
+  return at;
+}
+
+int pty_bridge_wake_fd(const pty_bridge_t *pty) { return pty->wake_pipe[0]; }

@@ -1,0 +1,110 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+/* The bridge between the simulated bus and client software: a pseudo-terminal that clients
+ * open as a serial port (a USB2Dynamixel stand-in). Pumped by the serve loop, plus one reader
+ * thread that drains the pty master continuously.
+ *
+ * - The client's baud is what it set on the pty, read on the master side with TCGETS2
+ *   (c_ospeed) at every pump. The bus garbles traffic when it differs from a servo's by more
+ *   than 3 %, as the real bus does.
+ * - Bytes the client writes leave the pty at once: a reader thread blocks in poll()/read() on
+ *   the master, stamps each chunk with the wall clock (and the client's baud then) and queues
+ *   it for the simulation thread. A USB adapter would have sent them already, so a client's
+ *   tcflush(TCOFLUSH) before its next packet (pypot does that) must not find them unread.
+ *   The simulation puts a chunk on the wire at the simulated time of its arrival
+ *   (pty_bridge_pump), never earlier than the world's time, back to back at 10 bit times each
+ *   (the adapter's UART).
+ * - Bytes the servos send are written to the pty when their stop bit has ended on the wire
+ *   (simulated time). The client never sees its own bytes (the adapter's receiver is off
+ *   while it transmits).
+ * A slave fd stays open in the bridge, so the master never reads EIO when a client closes. */
+#ifndef SIM_PTY_BRIDGE_H
+#define SIM_PTY_BRIDGE_H
+
+#include <pthread.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include "bus.h"
+#include "sim_time.h"
+
+/* Client bytes not yet on the wire beyond which the bridge stops reading (the pty buffers). */
+#define PTY_BRIDGE_MAX_QUEUED 4096u
+
+typedef struct {
+  sim_cycles_t end;
+  uint8_t value;
+} pty_out_byte_t;
+
+/* Reader thread -> simulation thread: chunks as read, with their wall-clock arrival. */
+#define PTY_BRIDGE_INBOX_BYTES 65536u
+#define PTY_BRIDGE_INBOX_CHUNKS 1024u
+
+typedef struct {
+  double wall_us; /* CLOCK_MONOTONIC (pacing_wall_us) when read() returned */
+  double bps;     /* the client's baud then (TCGETS2), 0 if unknown */
+  uint32_t offset, len; /* bytes in the inbox ring */
+  sim_cycles_t at; /* simulated time it enters the wire (set by the simulation thread) */
+} pty_in_chunk_t;
+
+typedef struct {
+  bus_t *bus;
+  const sim_cycles_t *now; /* the world's clock (world_t.now), read-only */
+  int node;
+  int master_fd;
+  int slave_fd;
+  char device[128];
+  char link_path[4096];
+  bool linked;
+  double bps;
+  double cycles_per_bit;
+  pty_out_byte_t *out;
+  size_t out_head, out_count, out_cap;
+  sim_cycles_t last_from_client_end;
+  /* Reader thread. */
+  pthread_t reader;
+  bool reader_started;
+  int stop_pipe[2];  /* the reader polls [0]; close() writes [1] */
+  int wake_pipe[2];  /* the reader writes [1] after queueing a chunk; poll [0] to wait */
+  pthread_mutex_t lock; /* guards the inbox and stopping */
+  pthread_cond_t space; /* the simulation freed room in the inbox */
+  bool stopping;
+  uint8_t *inbox;       /* PTY_BRIDGE_INBOX_BYTES ring */
+  uint32_t inbox_head, inbox_used;
+  pty_in_chunk_t chunks[PTY_BRIDGE_INBOX_CHUNKS];
+  uint32_t chunk_head, chunk_count; /* chunks[chunk_head .. +chunk_count) are queued */
+  uint32_t chunk_stamped;           /* how many of them have `at` set (simulation thread) */
+  /* Where the simulation was at its last pump: a lagging simulation maps arrivals from here. */
+  double anchor_wall_us;
+  sim_cycles_t anchor_sim;
+  bool anchored;
+  uint64_t from_client;
+  uint64_t to_client;
+  uint64_t dropped_to_client; /* the client did not read and the pty buffer was full */
+} pty_bridge_t;
+
+/* Opens the pty (raw, initial speed initial_bps) and joins bus, whose scheduler's clock is
+ * *now; creates link_path (a symlink to the device) when not NULL, replacing an existing
+ * symlink. -1 with err set. */
+int pty_bridge_open(pty_bridge_t *pty, bus_t *bus, const sim_cycles_t *now, double initial_bps, const char *link_path,
+                    char *err, size_t err_len);
+void pty_bridge_close(pty_bridge_t *pty);
+
+/* Writes every byte whose stop bit has ended by the world's time, then puts the client's
+ * queued chunks on the wire whose arrival time has come. A chunk that arrived at wall time w
+ * enters at max(now, S(w)): S(w) is the simulated time of w by the real-time pacing
+ * (sim_of_wall; NULL in --fast mode), and at most the simulated time of the previous pump
+ * plus the wall time since then (a simulation behind the wall clock treats itself as being
+ * at the wall clock at every pump, rather than queueing a client's bytes behind its lag).
+ * Returns true if a byte moved. */
+bool pty_bridge_pump(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx, double wall_us), void *ctx);
+
+/* The simulated time at which the next queued client chunk enters the wire (already
+ * stamped by a pump), or SIM_CYCLES_NEVER. Run the world no further before pumping again. */
+sim_cycles_t pty_bridge_next_input(const pty_bridge_t *pty);
+
+/* A descriptor that becomes readable when the client has written (for poll); drained by
+ * pty_bridge_pump. */
+int pty_bridge_wake_fd(const pty_bridge_t *pty);
+
+#endif

@@ -1,0 +1,115 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+#include "servo.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <avr_timer.h>
+#include <avr_uart.h>
+#include <sim_avr.h>
+#include <sim_elf.h>
+#include <sim_io.h>
+
+#include "servo_eeprom.h"
+#include "sim_log.h"
+#include "simavr_patch.h"
+
+static void set_power_on_flag(avr_t *avr) {
+  if (avr->reset_flags.porf.reg) {
+    avr_regbit_set(avr, avr->reset_flags.porf);
+  }
+}
+
+static void servo_was_reset(void *ctx) { servo_eeprom_was_reset(ctx); }
+
+/* The MCU's timer modules (for servo_earliest_wake) and Timer0's quieting (quiet_timer.h). */
+static bool attach_timers(servo_t *servo) {
+  const unsigned max = sizeof(servo->timers) / sizeof(servo->timers[0]);
+  for (avr_io_t *io = servo->avr->io_port; io && servo->timer_count < max; io = io->next) {
+    if (io->kind && strcmp(io->kind, "timer") == 0) {
+      servo->timers[servo->timer_count++] = io;
+      if (((avr_timer_t *)io)->name == '0' && !quiet_timer_attach(&servo->quiet_timer0, servo->avr, (avr_timer_t *)io)) {
+        return false;
+      }
+    }
+  }
+  return true;
+}
+
+servo_t *servo_create(const servo_config_t *config, bus_t *bus, char *err, size_t err_len) {
+  sim_log_install();
+  servo_t *servo = calloc(1, sizeof(*servo));
+  if (!servo) {
+    snprintf(err, err_len, "out of memory");
+    return NULL;
+  }
+  snprintf(servo->name, sizeof(servo->name), "%s", config->name ? config->name : "servo");
+  if (config->state_path) {
+    snprintf(servo->state_path, sizeof(servo->state_path), "%s", config->state_path);
+  }
+  avr_t *avr = avr_make_mcu_by_name(config->mcu);
+  if (!avr) {
+    snprintf(err, err_len, "unknown MCU '%s'", config->mcu);
+    free(servo);
+    return NULL;
+  }
+  servo->avr = avr;
+  avr_init(avr);
+  avr->log = LOG_ERROR;
+  avr_load_firmware(avr, (elf_firmware_t *)config->firmware);
+  avr->frequency = SIM_CPU_HZ;
+  avr->vcc = avr->avcc = avr->aref = 5000;
+  simavr_install_run_loop(avr);
+  set_power_on_flag(avr);
+
+  if (servo_eeprom_attach(servo, config, err, err_len) != 0) {
+    servo_destroy(servo);
+    return NULL;
+  }
+  if (!board_attach(&servo->board, avr, bus, servo->name)) {
+    snprintf(err, err_len, "MCU '%s' lacks a part the board needs (USART0, ports B/D) or the bus is full",
+             config->mcu);
+    servo_destroy(servo);
+    return NULL;
+  }
+  if (!attach_timers(servo)) {
+    snprintf(err, err_len, "MCU '%s': Timer0 is not where the emulator expects it", config->mcu);
+    servo_destroy(servo);
+    return NULL;
+  }
+  servo->board.on_reset = servo_was_reset;
+  servo->board.on_reset_ctx = servo;
+  servo->ready = true;
+  return servo;
+}
+
+void servo_destroy(servo_t *servo) {
+  if (!servo) {
+    return;
+  }
+  if (servo->ready && servo->state_path[0] && !servo->persist_errors) {
+    (void)servo_persist(servo);
+  }
+  if (servo->avr) {
+    avr_terminate(servo->avr);
+    board_detach(&servo->board);
+    free(servo->avr);
+  }
+  free(servo->persisted);
+  free(servo);
+}
+
+bool servo_listening(const servo_t *servo) {
+  return !servo->halted && avr_regbit_get(servo->avr, servo->board.link.uart->rxen);
+}
+
+void servo_reset(servo_t *servo) {
+  avr_reset(servo->avr);
+  servo->halted = false;
+}
+
+void servo_power_cycle(servo_t *servo) {
+  servo_reset(servo);
+  set_power_on_flag(servo->avr);
+}

@@ -1,0 +1,83 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+/* Every place the emulator reaches past simavr 1.6's public API into its internals, in one
+ * module: the I/O register handler table, the cycle-timer list, the core's run loop, the
+ * external-interrupt module's private poll timers and the USART's read-rate limiter. Each of
+ * these exists because simavr 1.6 models the chip imperfectly or too slowly for a bus of
+ * servos (docs/emulator.md "simavr 1.6 workarounds" lists the callers and why); a simavr
+ * upgrade starts here. This header declares the module without simavr's headers; the run
+ * loop, inline because it is the emulator's innermost loop, is in simavr_patch_run.h. */
+#ifndef SIM_SIMAVR_PATCH_H
+#define SIM_SIMAVR_PATCH_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "sim_time.h"
+
+struct avr_t;
+struct avr_uart_t;
+
+/* ---- I/O register handlers (avr->io[]) ----
+ * simavr 1.6's public calls (avr_register_io_read/write) give no way to wrap the handler a
+ * register has: call it from the new one, or not (the EECR hook must not let simavr store a
+ * byte silicon ignores), so the handler table is edited here.
+ * A write hook replaces the register's handler and keeps the one it replaced, so the new
+ * handler can chain to it; a read or write takeover replaces it for good. Users: the EECR
+ * hook (servo_eeprom.c), the USART (uart_link.c), Timer0 (quiet_timer.c). */
+
+typedef uint8_t (*io_read_fn)(struct avr_t *avr, uint16_t addr, void *param);
+typedef void (*io_write_fn)(struct avr_t *avr, uint16_t addr, uint8_t v, void *param);
+
+/* The handler a write hook replaced (c NULL: there was none; simavr stored the byte). */
+typedef struct {
+  io_write_fn c;
+  void *param;
+} io_write_hook_t;
+
+/* Installs fn(param) as the write handler of addr; *replaced receives the previous one. */
+void io_hook_write(struct avr_t *avr, uint16_t addr, io_write_fn fn, void *param, io_write_hook_t *replaced);
+
+/* What the replaced handler would have done with the write: call it, or store the byte. */
+void io_hook_chain(const io_write_hook_t *replaced, struct avr_t *avr, uint16_t addr, uint8_t v);
+
+/* Installs fn(param) as the read / write handler of addr, replacing simavr's for good. */
+void io_take_read(struct avr_t *avr, uint16_t addr, io_read_fn fn, void *param);
+void io_take_write(struct avr_t *avr, uint16_t addr, io_write_fn fn, void *param);
+
+/* True when simavr has a read handler for addr. */
+bool io_has_read(const struct avr_t *avr, uint16_t addr);
+
+/* ---- the cycle-timer list (avr->cycle_timers) ---- */
+
+/* When the first cycle timer is due whose owner (the param it was registered with) skip()
+ * does not reject; SIM_CYCLES_NEVER when none. */
+sim_cycles_t simavr_first_timer_when_except(const struct avr_t *avr,
+                                            bool (*skip)(const void *owner, const void *ctx), const void *ctx);
+
+/* Cancels every cycle timer registered with param `owner`; returns how many. */
+unsigned simavr_cancel_timers_of(struct avr_t *avr, const void *owner);
+
+/* ---- the run loop (avr->run, avr->sleep) ---- */
+
+/* Installs simavr_step_core(avr, 0) (simavr_patch_run.h) as the core's run callback and a
+ * sleep callback that does nothing: the world paces itself, and servo_run.c moves a sleeping
+ * core's clock itself (simavr's sleep would only jump the clock, one cycle late). */
+void simavr_install_run_loop(struct avr_t *avr);
+
+/* ---- the external-interrupt module (avr_extint.c) ---- */
+
+/* simavr 1.6 polls a level-triggered INT0/INT1 pin on every cycle while it is low, whether or
+ * not the interrupt is enabled. INT0 is PD2, the direction pin, low whenever a servo listens:
+ * that poll made the simulation ~50x slower. Switches the strict level mode off and cancels a
+ * poll already running (the firmware uses neither INT0 nor INT1). simavr turns the strict mode
+ * back on at every reset: call again after one (board.c does). */
+void simavr_extint_poll_off(struct avr_t *avr);
+
+/* ---- the USART (avr_uart.c) ---- */
+
+/* simavr 1.6 limits how fast UDR0 may be read after RXC rises (rx_cnt / rxc_raise_time) and
+ * clears RXC early when the firmware reads faster than its own byte pacing; a byte placed in
+ * the FIFO by the bus model resets that limiter, so RXC stays raised while bytes wait. */
+void simavr_uart_rx_limiter_reset(struct avr_uart_t *uart);
+
+#endif

@@ -1,0 +1,14 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+/* ax12-bench's commands (bench_main.c dispatches): each prints one JSON object on stdout. */
+#ifndef BENCH_COMMANDS_H
+#define BENCH_COMMANDS_H
+
+void bench_turnaround(unsigned requests);             /* bench_reply_timing.c */
+void bench_rdt(void);                                 /* bench_reply_timing.c */
+void bench_sustained(unsigned servos, double seconds); /* bench_load.c */
+void bench_speed(unsigned servos, double seconds);    /* bench_load.c */
+void bench_awake(void);                               /* bench_cycles.c */
+void bench_profile(unsigned servos, double seconds);  /* bench_cycles.c */
+void bench_stack(void);                               /* bench_stack.c */
+
+#endif

@@ -1,0 +1,224 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+#define _GNU_SOURCE
+#include "emu_options.h"
+
+#include <errno.h>
+#include <getopt.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "bus_noise.h"
+#include "state_dir.h"
+
+#ifndef AX12_DEFAULT_FIRMWARE_DIR
+#define AX12_DEFAULT_FIRMWARE_DIR "firmware"
+#endif
+
+static const char usage_text[] =
+    "usage: ax12-emu serve [options]\n"
+    "Emulated AX-12 servos (the firmware ELF in simavr) on one bus behind a pseudo-terminal.\n"
+    "Prints `ready: <device>` when a client can connect; Ctrl-C or SIGTERM stops it cleanly.\n"
+    "\n"
+    "  --ids LIST          servo IDs, e.g. 1 | 1,2,3 | 1-18 | 1-4,7 (default 1); each ID is\n"
+    "                      its own servo with its own EEPROM (state file servo-<ID>.eeprom)\n"
+    "  --link PATH         also make PATH a symlink to the device (removed on exit)\n"
+    "  --state-dir DIR     where EEPROM state files live (default $XDG_STATE_HOME/ax12 or\n"
+    "                      ~/.local/state/ax12); settings survive restarts\n"
+    "  --profile NAME      ax12 (2006 manual, default) or ax12a\n"
+    "  --mcu NAME          atmega88 (default) or atmega328p\n"
+    "  --baud VALUE        Baud Rate register of servos without a state file, 0..254\n"
+    "                      (default 1 = 1 Mbps; 2000000 / (VALUE + 1) bit/s)\n"
+    "  --realtime          simulated time follows the wall clock (default)\n"
+    "  --fast              no throttling: simulate as fast as the host allows\n"
+    "  --elf PATH          firmware ELF (default: <firmware-dir>/ax12-<profile>-<mcu>.elf)\n"
+    "  --firmware-dir DIR  where the firmware ELFs are (default: the build's)\n"
+    "  --stats             print bus and timing statistics to stderr on exit\n"
+    "  --bit-error-rate RATE\n"
+    "                      noise: every bit on the wire (start, 8 data, stop) flips with\n"
+    "                      probability RATE, 0 <= RATE < 1 (default 0: none), both ways;\n"
+    "                      a flipped data bit changes the byte every node gets, a flipped\n"
+    "                      start or stop bit is a framing error\n"
+    "  --seed N            seed of the noise, 0..2^64-1 (default 1): the same seed and the\n"
+    "                      same bytes on the wire give the same errors\n"
+    "  -h, --help          this text\n"
+    "\n"
+    "The physical world of every servo (model/plant: motor, gears, pot, supply, heat):\n";
+
+void emu_print_usage(FILE *out) {
+  fputs(usage_text, out);
+  fputs(plant_options_help, out);
+}
+
+static int fail_usage(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+static int fail_usage(const char *fmt, ...) {
+  va_list ap;
+  va_start(ap, fmt);
+  fputs("ax12-emu: ", stderr);
+  vfprintf(stderr, fmt, ap);
+  va_end(ap);
+  fputs(" (see ax12-emu serve --help)\n", stderr);
+  return EMU_EXIT_USAGE;
+}
+
+static bool parse_uint(const char *text, unsigned max, unsigned *value) {
+  char *end = NULL;
+  errno = 0;
+  const unsigned long v = strtoul(text, &end, 10);
+  if (errno || !end || *end || end == text || text[0] == '-' || v > max) {
+    return false;
+  }
+  *value = (unsigned)v;
+  return true;
+}
+
+/* A whole decimal number in 0..UINT64_MAX. */
+static bool parse_u64(const char *text, uint64_t *value) {
+  char *end = NULL;
+  errno = 0;
+  const unsigned long long v = strtoull(text, &end, 10);
+  if (text[0] < '0' || text[0] > '9' || errno || !end || *end) { /* no sign, no blanks */
+    return false;
+  }
+  *value = (uint64_t)v;
+  return true;
+}
+
+/* A decimal number (strtod syntax: 1e-4 too) that is a valid bit error rate (bus_noise_rate_valid). */
+static bool parse_bit_error_rate(const char *text, double *rate) {
+  char *end = NULL;
+  errno = 0;
+  const double v = strtod(text, &end);
+  if (errno || !end || *end || end == text || !isfinite(v) || !bus_noise_rate_valid(v)) {
+    return false;
+  }
+  *rate = v;
+  return true;
+}
+
+int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
+  enum { OPT_IDS = 256, OPT_LINK, OPT_STATE_DIR, OPT_PROFILE, OPT_MCU, OPT_BAUD, OPT_REALTIME, OPT_FAST, OPT_ELF,
+         OPT_FIRMWARE_DIR, OPT_STATS, OPT_BIT_ERROR_RATE, OPT_SEED };
+  static const struct option long_options[] = {
+      {"ids", required_argument, NULL, OPT_IDS},
+      {"link", required_argument, NULL, OPT_LINK},
+      {"state-dir", required_argument, NULL, OPT_STATE_DIR},
+      {"profile", required_argument, NULL, OPT_PROFILE},
+      {"mcu", required_argument, NULL, OPT_MCU},
+      {"baud", required_argument, NULL, OPT_BAUD},
+      {"realtime", no_argument, NULL, OPT_REALTIME},
+      {"fast", no_argument, NULL, OPT_FAST},
+      {"elf", required_argument, NULL, OPT_ELF},
+      {"firmware-dir", required_argument, NULL, OPT_FIRMWARE_DIR},
+      {"stats", no_argument, NULL, OPT_STATS},
+      {"bit-error-rate", required_argument, NULL, OPT_BIT_ERROR_RATE},
+      {"seed", required_argument, NULL, OPT_SEED},
+      PLANT_LONG_OPTIONS,
+      {"help", no_argument, NULL, 'h'},
+      {NULL, 0, NULL, 0},
+  };
+  char err[256];
+  memset(o, 0, sizeof(*o));
+  o->ids[0] = 1;
+  o->id_count = 1;
+  o->mcu = "atmega88";
+  o->baud = 1;
+  o->realtime = true;
+  o->firmware_dir = AX12_DEFAULT_FIRMWARE_DIR;
+  o->noise_seed = BUS_NOISE_DEFAULT_SEED;
+  state_dir_default(o->state_dir, sizeof(o->state_dir));
+  plant_options_default(&o->world);
+  opterr = 0;
+  optind = 1;
+  int c;
+  while ((c = getopt_long(argc, argv, ":h", long_options, NULL)) != -1) {
+    switch (c) {
+    case OPT_IDS:
+      if (!id_list_parse(optarg, o->ids, &o->id_count, err, sizeof(err))) {
+        return fail_usage("--ids: %s", err);
+      }
+      break;
+    case OPT_LINK:
+      o->link = optarg;
+      break;
+    case OPT_STATE_DIR:
+      if (!optarg[0]) {
+        return fail_usage("empty --state-dir");
+      }
+      snprintf(o->state_dir, sizeof(o->state_dir), "%s", optarg);
+      break;
+    case OPT_PROFILE:
+      if (!eeprom_profile_parse(optarg, &o->profile)) {
+        return fail_usage("unknown profile '%s' (ax12 or ax12a)", optarg);
+      }
+      break;
+    case OPT_MCU:
+      if (strcmp(optarg, "atmega88") != 0 && strcmp(optarg, "atmega328p") != 0) {
+        return fail_usage("unknown MCU '%s' (atmega88 or atmega328p)", optarg);
+      }
+      o->mcu = optarg;
+      break;
+    case OPT_BAUD:
+      if (!parse_uint(optarg, 254, &o->baud)) {
+        return fail_usage("bad --baud '%s': a Baud Rate register value 0..254", optarg);
+      }
+      break;
+    case OPT_REALTIME:
+      o->realtime = true;
+      break;
+    case OPT_FAST:
+      o->realtime = false;
+      break;
+    case OPT_ELF:
+      snprintf(o->elf, sizeof(o->elf), "%s", optarg);
+      break;
+    case OPT_FIRMWARE_DIR:
+      o->firmware_dir = optarg;
+      break;
+    case OPT_STATS:
+      o->stats = true;
+      break;
+    case OPT_BIT_ERROR_RATE:
+      if (!parse_bit_error_rate(optarg, &o->bit_error_rate)) {
+        return fail_usage("bad --bit-error-rate '%s': a probability per bit, 0 <= RATE < 1", optarg);
+      }
+      break;
+    case OPT_SEED:
+      if (!parse_u64(optarg, &o->noise_seed)) {
+        return fail_usage("bad --seed '%s': a whole number 0..18446744073709551615", optarg);
+      }
+      break;
+    case 'h':
+      emu_print_usage(stdout);
+      return 0;
+    case ':':
+      return fail_usage("option %s needs a value", argv[optind - 1]);
+    default:
+      if (plant_option_name(c) != NULL) {
+        if (!plant_options_parse(&o->world, plant_option_name(c), optarg, err, sizeof(err))) {
+          return fail_usage("%s", err);
+        }
+        break;
+      }
+      return fail_usage("unknown option '%s'", argv[optind - 1]);
+    }
+  }
+  if (optind < argc) {
+    return fail_usage("unexpected argument '%s'", argv[optind]);
+  }
+  if (!o->elf[0]) {
+    snprintf(o->elf, sizeof(o->elf), "%s/ax12-%s-%s.elf", o->firmware_dir, eeprom_profile_name(o->profile), o->mcu);
+  }
+  if (!state_dir_usable(o->state_dir, err, sizeof(err))) {
+    fprintf(stderr, "ax12-emu: %s\n", err);
+    return 1;
+  }
+  if (access(o->elf, R_OK) != 0) {
+    fprintf(stderr, "ax12-emu: firmware ELF %s: %s (build the firmware, or pass --elf)\n", o->elf, strerror(errno));
+    return 1;
+  }
+  return -1;
+}
+

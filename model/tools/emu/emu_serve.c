@@ -1,0 +1,178 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+#define _GNU_SOURCE
+#include "emu_serve.h"
+
+#include <limits.h>
+#include <signal.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "pacing.h"
+#include "pty_bridge.h"
+#include "servo.h"
+#include "servo_eeprom.h"
+#include "servo_plant.h"
+#include "world.h"
+
+#define SLICE_US 100u
+#define BOOT_LIMIT_MS 2000u
+#define SHUTDOWN_SETTLE_MS 500u
+#define LAG_REPORT_US 20000.0
+#define LAG_REPORT_PERIOD_US 10e6
+
+static volatile sig_atomic_t stop_requested;
+
+static void on_signal(int sig) {
+  (void)sig;
+  stop_requested = 1;
+}
+
+static void print_stats(const world_t *world, const pty_bridge_t *pty, const pacing_t *pacing) {
+  fprintf(stderr, "ax12-emu: simulated %.3f s at %.2fx real time; ", sim_cycles_to_us(world->now) / 1e6,
+          pacing_speed(pacing, world->now));
+  if (pacing->realtime) {
+    fprintf(stderr, "worst lag %.1f ms, %llu re-alignments; ", pacing->max_behind_us / 1e3,
+            (unsigned long long)pacing->realignments);
+  }
+  fprintf(stderr, "client bytes in %llu, out %llu (dropped %llu); bus collisions %llu, baud mismatches %llu\n",
+          (unsigned long long)pty->from_client, (unsigned long long)pty->to_client,
+          (unsigned long long)pty->dropped_to_client, (unsigned long long)world->bus.collided_bytes,
+          (unsigned long long)world->bus.mismatched_deliveries);
+  if (world->bus.noise.bit_error_rate > 0.0) {
+    fprintf(stderr, "ax12-emu: noise at %g per bit: %llu bytes corrupted, %llu bits flipped\n",
+            world->bus.noise.bit_error_rate, (unsigned long long)world->bus.noise_corrupted_bytes,
+            (unsigned long long)world->bus.noise_flipped_bits);
+  }
+  for (size_t i = 0; i < world->servo_count; i++) {
+    const servo_t *s = world->servos[i];
+    const uart_link_t *l = &s->board.link;
+    fprintf(stderr,
+            "ax12-emu: %s: rx %llu (overrun %llu, late %llu), tx %llu (undriven %llu), EEPROM writes %llu, "
+            "persisted %llu%s\n",
+            s->name, (unsigned long long)l->rx_bytes, (unsigned long long)l->rx_overruns,
+            (unsigned long long)l->rx_late, (unsigned long long)l->tx_bytes, (unsigned long long)l->tx_undriven,
+            (unsigned long long)s->eeprom_writes, (unsigned long long)s->persists, s->halted ? ", HALTED" : "");
+  }
+}
+
+static sim_cycles_t sim_of_wall(void *ctx, double wall_us) { return pacing_sim_at(ctx, wall_us); }
+
+int emu_serve(const serve_options_t *o) {
+  char err[512];
+  world_t *world = world_create(o->elf, o->mcu, o->profile, err, sizeof(err));
+  if (!world) {
+    fprintf(stderr, "ax12-emu: %s\n", err);
+    return 1;
+  }
+  (void)bus_set_noise(&world->bus, o->bit_error_rate, o->noise_seed); /* validated by the parser */
+  for (size_t i = 0; i < o->id_count; i++) {
+    char path[PATH_MAX + 32];
+    eeprom_store_path(path, sizeof(path), o->state_dir, o->ids[i]);
+    if (!world_add_servo(world, o->ids[i], (uint8_t)o->baud, path, err, sizeof(err))) {
+      fprintf(stderr, "ax12-emu: servo %u: %s\n", o->ids[i], err);
+      world_destroy(world);
+      return 1;
+    }
+  }
+  ax12_plant_t plant;
+  plant_options_build(&o->world, &plant);
+  for (size_t i = 0; i < world->servo_count; i++) {
+    servo_attach_plant(world->servos[i], &plant);
+  }
+  /* The pty starts at the first servo's baud, so a client that sets none still talks. */
+  uint8_t first_baud = (uint8_t)o->baud;
+  (void)eeprom_store_image_fields(world->servos[0]->eeprom, world->servos[0]->eeprom_size, NULL, &first_baud);
+  pty_bridge_t pty;
+  if (pty_bridge_open(&pty, &world->bus, &world->now, sim_baud_reg_to_bps(first_baud), o->link, err, sizeof(err)) != 0) {
+    fprintf(stderr, "ax12-emu: %s\n", err);
+    world_destroy(world);
+    return 1;
+  }
+
+  struct sigaction sa;
+  memset(&sa, 0, sizeof(sa));
+  sa.sa_handler = on_signal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, NULL);
+  sigaction(SIGTERM, &sa, NULL);
+  sigaction(SIGHUP, &sa, NULL);
+  signal(SIGPIPE, SIG_IGN);
+
+  pacing_t pacing;
+  pacing_start(&pacing, o->realtime, world->now);
+  const sim_cycles_t slice = sim_us(SLICE_US);
+
+  /* Boot: until every servo listens on the bus. */
+  bool booted = false;
+  while (!stop_requested && world->now < sim_ms(BOOT_LIMIT_MS)) {
+    booted = true;
+    for (size_t i = 0; i < world->servo_count; i++) {
+      booted &= servo_listening(world->servos[i]);
+    }
+    if (booted) {
+      break;
+    }
+    world_run_until(world, world->now + slice);
+    (void)pacing_wait(&pacing, world->now, -1);
+  }
+  if (!booted && !stop_requested) {
+    fprintf(stderr, "ax12-emu: warning: not every servo enabled its UART within %u ms\n", BOOT_LIMIT_MS);
+  }
+  printf("ready: %s\n", pty.device);
+  fflush(stdout);
+  fprintf(stderr, "ax12-emu: %zu servo%s (%s, %s) on %s%s%s, state in %s, %s\n", world->servo_count,
+          world->servo_count == 1 ? "" : "s", eeprom_profile_name(o->profile), o->mcu, pty.device, o->link ? " = " : "",
+          o->link ? o->link : "", o->state_dir, o->realtime ? "real time" : "fast");
+
+  bool warned_persist = false;
+  double lag_report_at_us = pacing_wall_us() + LAG_REPORT_PERIOD_US;
+  double lag_reported_us = 0.0;
+  while (!stop_requested) {
+    /* Up to the next client byte's arrival at most (it enters the wire at that exact time). */
+    sim_cycles_t until = world->now + slice;
+    const sim_cycles_t next_input = pty_bridge_next_input(&pty);
+    if (next_input > world->now && next_input < until) {
+      until = next_input;
+    }
+    world_run_until(world, until);
+    (void)pty_bridge_pump(&pty, o->realtime ? sim_of_wall : NULL, &pacing);
+    if (!warned_persist) {
+      for (size_t i = 0; i < world->servo_count; i++) {
+        if (world->servos[i]->persist_errors) {
+          fprintf(stderr, "ax12-emu: %s: %s\n", world->servos[i]->name, world->servos[i]->last_error);
+          warned_persist = true;
+        }
+      }
+    }
+    world_park(world);
+    if (pacing_wait(&pacing, world->now, pty_bridge_wake_fd(&pty))) {
+      (void)pty_bridge_pump(&pty, o->realtime ? sim_of_wall : NULL, &pacing);
+    }
+    if (o->realtime && pacing_wall_us() >= lag_report_at_us) {
+      /* At most one line per period, only when the lag grew past the threshold. */
+      const double lag = pacing.max_behind_us;
+      if (lag > LAG_REPORT_US && lag > lag_reported_us) {
+        fprintf(stderr, "ax12-emu: warning: the simulation ran up to %.0f ms behind real time (%.2fx overall)\n",
+                lag / 1e3, pacing_speed(&pacing, world->now));
+        lag_reported_us = lag;
+      }
+      lag_report_at_us = pacing_wall_us() + LAG_REPORT_PERIOD_US;
+    }
+  }
+
+  const int failures = world_settle_and_persist(world, sim_ms(SHUTDOWN_SETTLE_MS));
+  if (failures) {
+    for (size_t i = 0; i < world->servo_count; i++) {
+      if (world->servos[i]->persist_errors) {
+        fprintf(stderr, "ax12-emu: %s: %s\n", world->servos[i]->name, world->servos[i]->last_error);
+      }
+    }
+  }
+  if (o->stats) {
+    print_stats(world, &pty, &pacing);
+  }
+  pty_bridge_close(&pty);
+  world_destroy(world);
+  return failures ? 1 : 0;
+}
+

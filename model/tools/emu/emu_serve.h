@@ -1,0 +1,14 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+/* The serve loop of `ax12-emu serve`: the world of servos on their plants, the pty bridge,
+ * real-time pacing, and a clean stop with every EEPROM persisted. */
+#ifndef EMU_SERVE_H
+#define EMU_SERVE_H
+
+#include "emu_options.h"
+
+/* Runs until SIGINT, SIGTERM or SIGHUP. Prints `ready: <device>` on stdout once every servo
+ * listens (at most 2 s of simulated boot), everything else on stderr. Returns the exit
+ * status: 0 after a clean stop, 1 when a servo, the pty or persisting failed. */
+int emu_serve(const serve_options_t *o);
+
+#endif
