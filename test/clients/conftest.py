@@ -43,15 +43,9 @@ def _find_emulator():
     env = os.environ.get("AX12_EMU")
     if env:
         return env
-    patterns = [
-        str(REPO / "build" / "**" / "ax12-emu"),
-        "/tmp/build-sim/**/ax12-emu",
-        "/tmp/build-clients/**/ax12-emu",
-    ]
-    for pattern in patterns:
-        for path in sorted(glob.glob(pattern, recursive=True)):
-            if os.path.isfile(path) and os.access(path, os.X_OK):
-                return path
+    for path in sorted(glob.glob(str(REPO / "build" / "**" / "ax12-emu"), recursive=True)):
+        if os.path.isfile(path) and os.access(path, os.X_OK):
+            return path
     return None
 
 
@@ -199,7 +193,7 @@ class EmulatorFactory:
         emu = _find_emulator()
         if emu is None:
             pytest.skip("ax12-emu not found: set AX12_EMU to the built binary "
-                        "(cmake --build <build>; <build>/model/sim/ax12-emu)")
+                        "(cmake --build <build>; <build>/model/tools/emu/ax12-emu)")
         if not os.access(emu, os.X_OK):
             pytest.fail(f"AX12_EMU={emu} is not an executable ax12-emu")
         if state_dir is None:

@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
-/* The wire on its own (model/sim/bus.c, no simavr): byte timing, baud mismatch, collisions,
+/* The wire on its own (model/bus/bus.c, no simavr): byte timing, baud mismatch, collisions,
  * a sender that lets go mid-byte, the scheduling contract, and noise (bus_noise.c). */
 #include <math.h>
 #include <setjmp.h>

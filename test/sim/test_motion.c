@@ -458,7 +458,7 @@ static void test_angle_limit_alarm_ax12a(void **state) {
   angle_limit_alarm("ax12a");
 }
 
-/* ---- the simulator's batched runs (model/sim/servo.c) ---- */
+/* ---- the simulator's batched runs (model/simavr/servo_run.c) ---- */
 
 /* A script that exercises every path of the firmware on three moving servos: replies at
  * Return Delay Time 0 (the RX ISR), 3 (its spin) and 250 (Timer1 COMPA), broadcast PINGs that
@@ -547,7 +547,7 @@ static void test_batched_runs_match_single_steps(void **state) {
   harness_close(&stepped.h);
 }
 
-/* What a quiet Timer0 no longer simulates (model/sim/quiet_timer.h): its count, its flags,
+/* What a quiet Timer0 no longer simulates (model/simavr/quiet_timer.h): its count, its flags,
  * its compare pins' levels. */
 static void blank_unsimulated_timer0_state(const servo_t *servo, uint8_t *data) {
   const avr_timer_t *t0 = servo->quiet_timer0.timer;
