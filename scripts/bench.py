@@ -39,6 +39,52 @@ def avr_size(elf):
     return flash, ram
 
 
+def flash_by_module(build):
+    """Flash each firmware source file costs on its own: the ATmega328P build compiled without
+    link-time optimisation (AX12_FIRMWARE_LTO=OFF, in <build>/firmware-by-module), its map's
+    .text/.data input sections summed per object file. LTO then shares and inlines across files:
+    the product image is smaller than the sum. Returns [(module, bytes)], largest first, and the
+    total."""
+    out = os.path.join(build, "firmware-by-module")
+    subprocess.run(["cmake", "-S", os.path.join(REPO, "firmware"), "-B", out, "-DAVR_MCU=atmega328p",
+                    "-DDXL_PROFILE_NAME=ax12", "-DAX12_FIRMWARE_LTO=OFF"], check=True, capture_output=True)
+    subprocess.run(["cmake", "--build", out], check=True, capture_output=True)
+    sizes = {}
+    pending = None  # a section name on its own line: its address, size and object follow
+    with open(os.path.join(out, "ax12-ax12-atmega328p.map")) as f:
+        text = f.read()
+    text = text[text.index("Linker script and memory map"):]
+    for line in text.splitlines():
+        m = re.match(r"^ (\.(?:text|data|progmem|init\d|vectors)\S*)\s*$", line)
+        if m:
+            pending = m.group(1)
+            continue
+        m = re.match(r"^ (\.(?:text|data|progmem|init\d|vectors)\S*)?\s+0x[0-9a-f]+\s+0x([0-9a-f]+)\s+(\S+)", line)
+        if m and (m.group(1) or pending):
+            obj = m.group(3)
+            name = re.sub(r"\.(c|S)\.obj$", r".\1", os.path.basename(obj))
+            name = re.sub(r"^lib(gcc|c|atmega328p)\.a\(.*\)$", r"lib\1", name)
+            name = "vectors and C runtime" if name.startswith("crt") else name
+            sizes[name] = sizes.get(name, 0) + int(m.group(2), 16)
+        pending = None
+    total = sum(sizes.values())
+    return sorted(sizes.items(), key=lambda kv: -kv[1]), total
+
+
+def host_instructions(cmd, toggle):
+    """Host instructions (callgrind's Ir) spent inside the function toggle while cmd runs, and
+    cmd's last JSON line: a figure that does not move with the machine's load."""
+    with tempfile.TemporaryDirectory(prefix="ax12-callgrind-") as d:
+        out_file = os.path.join(d, "callgrind.out")
+        run = subprocess.run(["valgrind", "--tool=callgrind", "--toggle-collect=" + toggle,
+                              "--callgrind-out-file=" + out_file, *cmd], check=True, capture_output=True, text=True)
+        with open(out_file) as f:
+            for line in f:
+                if line.startswith("summary:") or line.startswith("totals:"):
+                    return int(line.split()[1]), json.loads(run.stdout.strip().splitlines()[-1])
+    raise RuntimeError("callgrind wrote no totals")
+
+
 class Serve:
     """ax12-emu serve in real time with a fresh state directory; yields the device path."""
 
@@ -154,6 +200,12 @@ def main():
         row("size", "%s RAM incl. stack" % mcu, ram + stack, "B", "<= %d (75 %%)" % (RAM_ATMEGA88 * 3 // 4) if goal88 else "",
             "%s_ram_with_stack_bytes" % mcu)
 
+    modules, modules_total = flash_by_module(a.build)
+    for name, size in modules:
+        row("flash by module (ATmega328P, no LTO)", name, size, "B", "", "flash_module_%s_bytes" % re.sub(r"\W", "_", name))
+    row("flash by module (ATmega328P, no LTO)", "sum (LTO shares and inlines across them)", modules_total, "B", "",
+        "flash_modules_total_bytes")
+
     t = run_json([bench, "turnaround", elf, "200"])
     for kind, label in (("ping", "PING"), ("read2", "2-byte READ"), ("write2", "2-byte WRITE")):
         for stat in ("median", "worst"):
@@ -204,6 +256,14 @@ def main():
         row("simulation speed", "%d servos, unthrottled, idle" % n, idle, "x real time", ">= 1", "speed_%d_idle_fast" % n)
         row("simulation speed", "%d servos, unthrottled, client loop" % n, loaded, "x real time", ">= 1",
             "speed_%d_loaded_fast" % n)
+
+    # The host's cost of the 30-servo client loop, machine-independent: callgrind's instruction
+    # count inside bench_client_loops (the loaded window of ax12-bench speed), per simulated
+    # servo-second.
+    loaded_s = 0.1
+    instructions, speed = host_instructions([bench, "speed", elf, "30", str(loaded_s)], "bench_client_loops")
+    row("host cost (callgrind)", "30-servo client loop, per simulated servo-second", instructions / (30 * speed["loaded_sim_s"]),
+        "instructions", "no higher than before", "host_instructions_per_servo_s_30")
 
     ping = sdk_ping_median_ms(emu, fw, 50 if a.quick else 200)
     row("real clients", "DynamixelSDK ping, median", ping, "ms", "", "sdk_ping_median_ms")

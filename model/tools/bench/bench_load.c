@@ -80,8 +80,8 @@ void bench_speed(unsigned servos, double seconds) {
   const double loaded_wall = bench_wall_s() - w0;
   const double loaded_sim = (double)(r.world->now - t0) / SIM_CYCLES_PER_US / 1e6;
   printf("{\"servos\": %u, \"idle_sim_s_per_wall_s\": %.3f, \"loaded_sim_s_per_wall_s\": %.3f, "
-         "\"client_loops_per_sim_s\": %.1f}\n",
-         servos, idle_speed, loaded_sim / loaded_wall, loops / loaded_sim);
+         "\"client_loops_per_sim_s\": %.1f, \"loaded_sim_s\": %.6f}\n",
+         servos, idle_speed, loaded_sim / loaded_wall, loops / loaded_sim, loaded_sim);
   bench_rig_close(&r);
 }
 
