@@ -3,7 +3,8 @@
  *
  * control_tick() runs dxl_control_tick() (firmware/core/dxl_control.h, docs/control.md) on
  * the Present Position / Voltage / Temperature the main loop published and sets the H-bridge:
- * drive -1023..1023 -> motor_set_drive(drive x 255 / 1023). Contract: read the table and held conditions of *servo, write the Present* items and
+ * drive -1023..1023 -> motor_set_drive(drive x 255 / 1023, floored: dxl_control_duty()).
+ * Contract: read the table and held conditions of *servo, write the Present* items and
  * servo->held_conditions, and drive the motor only through motor_set_drive(). It runs in the
  * main loop, never in an ISR (a whole tick is about 1.0k cycles, 65 us, docs/control.md
  * "Cost"); a packet arriving meanwhile waits in the UART ring (UART_RX_RING_BYTES = 128

@@ -103,8 +103,8 @@ uint8_t dxl_servo_stream_mask(const dxl_servo_t *servo);
 
 /* The status packet that answers a PING now (when it is answered at all: dxl_servo_answers):
  * bytes[0..DXL_PING_REPLY_BYTES), length and delay_us, byte for byte what
- * dxl_servo_prepare() builds for it; nothing else of *reply changes. Small, so the firmware keeps one ready and can arm
- * it before a PING's instruction byte has even been examined. */
+ * dxl_servo_prepare() builds for it; nothing else of *reply changes. Small, so the firmware
+ * keeps one ready, and the RX interrupt can arm it before the main loop has seen the PING. */
 #define DXL_PING_REPLY_BYTES 6u
 void dxl_servo_ping_reply(const dxl_servo_t *servo, dxl_response_t *reply);
 
