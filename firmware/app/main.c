@@ -8,8 +8,9 @@
  *      last byte, apply what follows it (factory reset, new baud);
  *   2. receive: the packet whose reply the RX ISR's sniff armed (prepare and publish it
  *      before its checksum, commit after), or ring bytes through the packet finder;
- *   3. control tick (1 kHz): ADC, publish Present Position / Voltage / Temperature,
- *      control_tick(), LED, finder gap timeout, ready PING reply;
+ *   3. control tick (1 kHz): the sniff's and the skip's timeouts, finder gap timeout, ADC,
+ *      publish Present Position / Voltage / Temperature, control_tick(), LED, ready PING
+ *      reply;
  *   4. EEPROM: one byte of a pending image write when the EEPROM is ready;
  *   5. idle sleep unless an ISR set the wake flag during the pass.
  *
@@ -40,7 +41,7 @@
 #include "timebase.h"
 #include "uart.h"
 
-/* Power-up blink (POLICY.md "Power-up"): on-off twice, BOOT_BLINK_MS each phase. */
+/* Power-up blink (docs/policy.md "Power-up"): on-off twice, BOOT_BLINK_MS each phase. */
 #define BOOT_BLINK_MS 100u
 #define BOOT_BLINK_PHASES 4u
 
@@ -72,8 +73,8 @@ static uint8_t sniff_age_ms;
 static uint8_t sniff_seen_head; /* uart_rx_head at the last tick */
 /* Another servo's packet the RX ISR skips (uart_skip_count), and a header the sniff frames
  * without storing it (uart_sniff 1..UART_SNIFF_LENGTH, uart_rx.S), end like any partial
- * packet when no byte came for more than DXL_PACKET_GAP_TIMEOUT_MS (POLICY.md "Framing and
- * bus"): the skip stops, the header is dropped, as the finder drops what came before a gap.
+ * packet when no byte came for more than DXL_PACKET_GAP_TIMEOUT_MS (docs/policy.md "Framing
+ * and bus"): the skip stops, the header is dropped, as the finder drops what came before a gap.
  * Progress is the skip count or the header state changing between ticks (bytes that bring it
  * back to the same value within 1 ms every time for 100 ms could end either early: the rest
  * then reaches the sniff or the finder, which frame nothing of it). */
@@ -156,8 +157,8 @@ static __attribute__((noinline)) void sniff_start(void) {
 
 /* A sniff that has matched bytes is left alone: its PING is under way with this reply. One
  * still at byte 0 keeps running (stopping it would miss a PING that starts meanwhile): the
- * ISR needs 6 byte times from there to read the reply, far more than the rebuild takes, and
- * the reload is atomic. */
+ * ISR reads the reply at the PING's checksum, at least 5 byte times later, long after the
+ * rebuild and the reload (uart_reply_load) are done. */
 static __attribute__((noinline)) void refresh_ping_reply(void) {
   const uint8_t sniff = uart_sniff;
   if (!armed && link_free() && (sniff == 0 || sniff == UART_SNIFF_OFF)) {
@@ -411,7 +412,7 @@ static void power_up(void) {
   motor_init();
   timebase_init();
   adc_init();
-  /* Present values first: Goal Position = Present Position (POLICY.md "Power-up"). */
+  /* Present values first: Goal Position = Present Position (docs/policy.md "Power-up"). */
   const uint16_t position = adc_read_blocking(ADC_CH_POT);
   const uint8_t *const stored = nvm_load();
   dxl_servo_power_up(&servo, stored, position);

@@ -1,4 +1,4 @@
-/* The AX-12 control table, defined once (POLICY.md "Control table").
+/* The AX-12 control table, defined once (docs/policy.md "Control table").
  *
  * X(NAME, address, size_bytes, access_ax12, access_ax12a, min, max, default_ax12, default_ax12a)
  *

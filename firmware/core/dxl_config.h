@@ -4,7 +4,7 @@
 #define DXL_CONFIG_H
 
 #define DXL_PROFILE_AX12 1  /* the 2006 AX-12 manual */
-#define DXL_PROFILE_AX12A 2 /* the later AX-12A e-manual, where POLICY.md says so */
+#define DXL_PROFILE_AX12A 2 /* the later AX-12A e-manual, where docs/policy.md says so */
 
 #ifndef DXL_PROFILE
 #define DXL_PROFILE DXL_PROFILE_AX12

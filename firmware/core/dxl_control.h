@@ -5,7 +5,7 @@
  * 1/1023 of full supply, signed, positive = counter-clockwise (CCW, counts rising); Moving
  * Speed and Present Speed in 0.111 rpm per unit (2.2711 counts/s per unit).
  *
- * Joint mode (POLICY.md "Motion semantics"): a setpoint moves toward the goal (clamped to the
+ * Joint mode (docs/policy.md "Motion semantics"): a setpoint moves toward the goal (clamped to the
  * angle limits) at Moving Speed (0 = jumps there). The compliance law acts on
  * e = setpoint - position: |e| <= margin gives no drive; past the margin the drive steps to
  * Punch and rises linearly to Torque Limit over the slope, where slope s acts as the smallest
@@ -13,7 +13,7 @@
  * Wheel mode (both angle limits 0): Moving Speed bits 0..9 are the drive, bit 10 the
  * direction (1 = CW); Torque Limit caps it.
  *
- * Alarms (POLICY.md "Alarms"): conditions voltage, overheating and overload are held in
+ * Alarms (docs/policy.md "Alarms"): conditions voltage, overheating and overload are held in
  * servo->held_conditions; the angle-limit condition comes from the core; events come from
  * dxl_servo_take_events(). A bit set in Alarm LED blinks the LED while it holds and for
  * DXL_ALARM_LED_HOLD_MS after; a bit set in Alarm Shutdown turns torque off (Torque Enable

@@ -1,7 +1,7 @@
-/* The packet finder: turns a byte stream (fed one byte at a time, as the UART receive path
- * delivers it) into Protocol 1.0 packets.
+/* The packet finder: turns a byte stream (fed one byte or one batch at a time) into Protocol
+ * 1.0 packets.
  *
- * Framing (POLICY.md "Framing and bus"): two or more 0xFF, ID (0..0xFE), LENGTH (>= 2),
+ * Framing (docs/policy.md "Framing and bus"): two or more 0xFF, ID (0..0xFE), LENGTH (>= 2),
  * LENGTH-1 bytes of instruction and parameters, checksum = ~(ID + LENGTH + body) & 0xFF.
  * Packets for any ID, and other servos' status packets, are framed the same way; choosing
  * what to act on is the caller's business.

@@ -15,7 +15,7 @@
 #define DXL_INST_RESET 0x06u
 #define DXL_INST_SYNC_WRITE 0x83u
 
-/* Error byte of a status packet (POLICY.md "Error byte"). Conditions hold in every reply while
+/* Error byte of a status packet (docs/policy.md "Error byte"). Conditions hold in every reply while
  * true; events appear only in the reply to the offending packet. */
 #define DXL_ERR_VOLTAGE 0x01u     /* condition */
 #define DXL_ERR_ANGLE_LIMIT 0x02u /* condition */

@@ -5,7 +5,7 @@
 
 #include "dxl_protocol.h"
 
-/* The reply rules (POLICY.md "Replies", "Instructions and their errors"), as two switches
+/* The reply rules (docs/policy.md "Replies", "Instructions and their errors"), as two switches
  * (cheaper on the AVR than a table search on every packet):
  *   params_fit()         parameter counts that fit the instruction (else Instruction Error);
  *   min_status_level()   the Status Return Level from which a unicast packet is answered.
@@ -64,7 +64,7 @@ static bool window_overlaps(uint8_t start, uint8_t len, uint8_t first_addr, uint
   return start <= last_addr && (uint16_t)start + len > first_addr;
 }
 
-/* Angle Limit condition (POLICY.md "Goal Position outside CW..CCW Angle Limit"), for the table
+/* Angle Limit condition (docs/policy.md "Goal Position and the angle limits"), for the table
  * as it is after writing data[0..len) at start (len 0: as it is now). In wheel mode every
  * Goal Position written lies outside the limits. */
 static bool angle_limit_after_write(const dxl_servo_t *s, uint8_t start, const uint8_t *data, uint8_t len) {

@@ -1,5 +1,5 @@
 /* One AX-12's protocol behaviour: the control table, the REG_WRITE slot and the seven
- * instructions, with Status Return Level, broadcast and error semantics from POLICY.md.
+ * instructions, with Status Return Level, broadcast and error semantics from docs/policy.md.
  *
  * Handling a packet is split in two so the firmware can start the reply the moment the last
  * byte arrives:
@@ -71,7 +71,7 @@ typedef struct {
   uint8_t pending_events;
 } dxl_servo_t;
 
-/* Power-up (POLICY.md "Power-up"): the EEPROM area from eeprom_area (CT_EEPROM_SIZE bytes,
+/* Power-up (docs/policy.md "Power-up"): the EEPROM area from eeprom_area (CT_EEPROM_SIZE bytes,
  * already integrity-checked by the caller) or factory defaults when it is NULL; the RAM area
  * at its power-up values with Goal Position = present_position. */
 void dxl_servo_power_up(dxl_servo_t *servo, const uint8_t *eeprom_area, uint16_t present_position);
@@ -103,8 +103,8 @@ uint8_t dxl_servo_stream_mask(const dxl_servo_t *servo);
 
 /* The status packet that answers a PING now (when it is answered at all: dxl_servo_answers):
  * bytes[0..DXL_PING_REPLY_BYTES), length and delay_us, byte for byte what
- * dxl_servo_prepare() builds for it; nothing else of *reply changes. Small, so the firmware keeps one ready and can arm
- * it before a PING's instruction byte has even been examined. */
+ * dxl_servo_prepare() builds for it; nothing else of *reply changes. Small, so the firmware
+ * keeps one ready, and the RX interrupt can arm it before the main loop has seen the PING. */
 #define DXL_PING_REPLY_BYTES 6u
 void dxl_servo_ping_reply(const dxl_servo_t *servo, dxl_response_t *reply);
 

@@ -29,7 +29,7 @@ static const DXL_FLASH uint8_t item_index_by_addr[CT_SIZE] = {
 #undef CT_X_INDEX_BY_ADDR
 };
 
-/* Lock (address 47), POLICY.md "Lock": which addresses a locked table still accepts. */
+/* docs/policy.md "Lock (address 47)": which addresses a locked table still accepts. */
 #define LOCK_AX12_WRITABLE_FIRST CT_ADDR_TORQUE_ENABLE     /* 24 */
 #define LOCK_AX12_WRITABLE_LAST (CT_ADDR_TORQUE_LIMIT + 1) /* 35 */
 #define LOCK_AX12A_REFUSED_FIRST CT_ADDR_ID                /* 3 */

@@ -65,7 +65,7 @@ void ct_load_factory_eeprom(uint8_t *table);
  * firmware version, calibration, reserved): they describe this firmware, not the image. */
 void ct_load_factory_read_only(uint8_t *table);
 /* Power-up values of the RAM area (24..49) from the EEPROM area and Present Position:
- * Goal Position = present_position, Torque Limit = Max Torque (POLICY.md "Power-up"). */
+ * Goal Position = present_position, Torque Limit = Max Torque (docs/policy.md "Power-up"). */
 void ct_load_power_up_ram(uint8_t *table, uint16_t present_position);
 
 /* True when both angle limits are 0 (endless turn). */

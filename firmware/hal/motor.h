@@ -3,8 +3,8 @@
  * clockwise; at most one of OCR0A / OCR0B is non-zero; both 0 = coast, with Timer0 stopped
  * (it runs only while the motor is driven).
  *
- * The seam for the motion control to come: control_tick() computes a drive and calls
- * motor_set_drive(). Main loop only.
+ * The motion control's seam: control_tick() (app/control.c) computes a drive and calls
+ * motor_set_drive() once per control tick. Main loop only.
  */
 #ifndef HAL_MOTOR_H
 #define HAL_MOTOR_H

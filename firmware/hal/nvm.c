@@ -14,7 +14,7 @@ static uint8_t image[DXL_IMAGE_BYTES];
  * Zero (all done) at reset, so the firmware has no initialised data (no copy loop). */
 static uint8_t bytes_left;
 
-/* EE_READY (wakeup_isr.S) only clears EERIE: while enabled it is raised for as long as the
+/* EE_READY (tiny_isr.S) only clears EERIE: while enabled it is raised for as long as the
  * EEPROM is ready; its job is to wake the main loop after a write. */
 
 const uint8_t *nvm_load(void) {

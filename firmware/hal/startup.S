@@ -6,8 +6,8 @@
  *         heap, so only the stack ever writes there: a host that reads RAM finds the deepest
  *         stack use as RAMEND + 1 - (the lowest address >= _end whose byte is no longer
  *         STACK_PAINT_BYTE). SP is RAMEND from reset and nothing is on the stack yet; the loop
- *         uses r24, r25, Z and no stack; 5 cycles per byte (0.2 ms on the ATmega88, 0.5 ms
- *         on the ATmega328P). See docs/firmware.md "Stack paint".
+ *         uses r24, r25, Z and no stack; 6 cycles per byte (0.15 ms on the ATmega88, 0.53 ms
+ *         on the ATmega328P, with 624 B of static RAM). See docs/firmware.md "Stack paint".
  * .init3  (r1 = 0, SP set by .init2) board_reset_flags = MCUSR; MCUSR = 0 (clears WDRF, which
  *         would force the watchdog on); then the timed WDCE sequence switches the watchdog
  *         off until main() starts it (a watchdog reset leaves it running at 16 ms).

@@ -1,6 +1,6 @@
 /* Timer1 timebase (docs/hardware.md "Timebase"): free-running at clk/8, one tick = 0.5 us,
  * wrapping every 32.768 ms. OCR1A belongs to the UART (Return Delay Time, uart.c); OCR1B
- * raises the control tick every TIMEBASE_TICK_PERIOD_TICKS: its ISR (tiny_isr.S, 45 cycles)
+ * raises the control tick every TIMEBASE_TICK_PERIOD_TICKS: its ISR (tiny_isr.S, 49 cycles)
  * moves OCR1B on and counts milliseconds; the main loop runs the periodic work when it sees
  * the count change (timebase_poll).
  *

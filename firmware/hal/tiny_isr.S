@@ -1,17 +1,18 @@
 /* Two small ISRs in assembly, so they save only what they touch and stay short: each one
  * that runs just before the USART_RX or TIMER1_COMPA ISR delays it, and those time replies
  * (docs/firmware.md "Reply timing"). Cycle counts include the 4-cycle response and the
- * vector JMP.
+ * vector's jump (RJMP on the ATmega88; the ATmega328P's JMP adds one cycle).
  *
- * TIMER1_COMPB (timebase.c), 46 cycles, every 1 ms: OCR1B += TIMEBASE_TICK_PERIOD_TICKS and
+ * TIMER1_COMPB (timebase.c), 49 cycles, every 1 ms: OCR1B += TIMEBASE_TICK_PERIOD_TICKS and
  *   timebase_ms_count += 1. Counting here, not in the main loop, keeps the millisecond
- *   count right however long the main loop is busy (the packet finder's worst case on
- *   garbage is tens of milliseconds). Interrupts are enabled again after its first 8
- *   cycles, so a USART_RX interrupt (which stamps the byte's time) waits at most that long;
+ *   count right however long a main-loop pass takes (one that handles a packet, or rejects
+ *   a candidate in garbage, takes thousands of cycles). Interrupts are enabled again after
+ *   the first 8 cycles of its code, so a USART_RX interrupt (which stamps the byte's time)
+ *   waits at most that long;
  *   COMPB cannot nest into itself (its next match is 1 ms later). No nested ISR reads the
  *   millisecond count; the OCR1B write is done with interrupts off, because a 16-bit timer
  *   access in a nested ISR (TCNT1 read, OCR1A write) would clobber the shared TEMP byte.
- * EE_READY (nvm.c), 13 cycles: raised for as long as the EEPROM is ready while EERIE is set;
+ * EE_READY (nvm.c), 14 cycles: raised for as long as the EEPROM is ready while EERIE is set;
  *   it only wakes the main loop (wake flag, board.h), so it switches EERIE off (CBI, SBI:
  *   no register, no SREG).
  */

@@ -18,9 +18,10 @@ _Static_assert(DXL_HEADER_BYTE_ASM == DXL_HEADER_BYTE && DXL_INST_PING_ASM == DX
                    UART_SNIFF_WRITE_MIN_ADDR == DXL_STREAM_WRITE_MIN_ADDR &&
                    UART_STREAM_HEADER_BYTES == DXL_STREAM_HEADER_BYTES,
                "uart.h's assembler copies of the protocol values");
-/* The sniff's held bytes leave the main loop this margin of the ring once a sniff ends
- * part-way (uart.h): 24 bytes, 240 us at 1 Mbps, against a main-loop pass of at most a
- * control tick (about 80 us). */
+/* The sniff's held bytes leave the main loop at least this margin of the ring once a sniff
+ * ends part-way (uart.h): 24 bytes, 240 us at 1 Mbps (the bounds leave 28), against a
+ * main-loop pass of at most a control tick (under 1.2k cycles, 75 us): a sniff runs only
+ * while the main loop has no packet to handle. */
 _Static_assert(UART_RX_RING_BYTES - UART_SNIFF_MAX_HELD >= 24, "the sniff's bounds leave the main loop no margin");
 #if UART_COMPA_EARLY_TICKS > 63 || UART_SPIN_COMPENSATION_TICKS + UART_ARMED_READ_LATE_TICKS > 63
 #error "compensation must fit SBIW in uart_rx.S"

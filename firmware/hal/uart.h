@@ -11,7 +11,7 @@
  * uart_reply_state() reports UART_REPLY_DONE. PD2 (bus direction) is high and the receiver
  * is off (RXEN0 = 0: no own echo) from the first byte until TX-complete of the last byte.
  *
- * Reply timing (POLICY.md "Replies"): the first byte is written to UDR0 2 us x Return Delay
+ * Reply timing (docs/policy.md "Replies"): the first byte is written to UDR0 2 us x Return Delay
  * Time after the RX interrupt of the instruction's last byte. Three ways to start it:
  *   - armed: the RX ISR's sniff (below) arms the reply at the packet's last byte before the
  *     checksum, with the checksum that completes it; the RX ISR starts it the moment that
@@ -34,10 +34,10 @@
 
 #include <avr/io.h>
 
-/* Ring size: a power of two, <= 128. At 1 Mbps the main loop pushes a byte into the packet
- * finder in about 150 cycles and the RX ISR takes about 74 of every 160 on the finder's path:
- * a 259-byte packet sent back to back leaves up to about 70 bytes waiting (docs/firmware.md
- * "Receive"). */
+/* Ring size: a power of two, <= 128 (8-bit free-running indices). It holds the bytes a sniff
+ * holds (at most UART_SNIFF_MAX_HELD) and the bytes that arrive while the main loop is busy
+ * with something else (a control tick, a packet); the main loop moves them into the packet
+ * finder in batches (docs/firmware.md "Receive"). */
 #define UART_RX_RING_BYTES 128
 #define UART_RX_RING_MASK (UART_RX_RING_BYTES - 1)
 
@@ -72,7 +72,7 @@
  * ring at the LENGTH of a packet the servo keeps; before that the sniff holds it in its state
  * alone), then LENGTH + 1 bytes with LENGTH at most UART_SNIFF_MAX_LENGTH (a SYNC_WRITE of 2
  * bytes to 30 servos is 94). The rest of the ring is the main loop's margin once a sniff ends
- * part-way (24 bytes: 240 us at 1 Mbps). */
+ * part-way (28 bytes: 280 us at 1 Mbps). */
 #define UART_SNIFF_MAX_HEADER_HELD 3
 #define UART_SNIFF_MAX_LENGTH 96
 #define UART_SNIFF_MAX_HELD (UART_SNIFF_MAX_HEADER_HELD + 1 + UART_SNIFF_MAX_LENGTH)
@@ -102,7 +102,7 @@
  * "Reply timing"): it covers a TCNT1 read 6 cycles after the RX vector is entered (the
  * reference every path's tick is normalised to, uart_rx.S) and the UDR0 write 9 cycles after
  * the spin sees its tick. TIMER1_COMPA is set UART_COMPA_EARLY_TICKS before start, so its
- * entry and a TIMER1_COMPB ISR (45 cycles) just before it do not delay the reply. */
+ * entry and a TIMER1_COMPB ISR (49 cycles, tiny_isr.S) just before it do not delay the reply. */
 #define UART_SPIN_COMPENSATION_TICKS 2
 /* The armed path reads TCNT1 25 cycles after that reference (it tests the armed state and
  * the checksum first, for the Return Delay Time 0 latency): 3 ticks, 1 cycle left over. */
@@ -131,8 +131,8 @@ extern volatile uint8_t uart_rx_head; /* RX ISR writes */
 extern volatile uint8_t uart_rx_tail; /* main loop writes */
 extern volatile uint8_t uart_tx_state; /* UART_REPLY_* */
 /* Bytes lost because the ring was full, and bytes the USART flagged (frame error or data
- * overrun), since power-up; both saturate at 255. Nothing reports them yet: a host reads
- * them from RAM by symbol. */
+ * overrun), since power-up; both saturate at 255. The firmware does not report them: a host
+ * reads them from RAM by symbol. */
 extern volatile uint8_t uart_rx_dropped_count;
 extern volatile uint8_t uart_rx_line_error_count;
 

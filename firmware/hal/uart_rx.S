@@ -9,23 +9,25 @@
  *     matches -> start the reply, by uart_tx_mode:
  *       NOW    write the first byte at once (set PD2, UDR0, receiver off, UDRE interrupt on);
  *       SPIN   busy-wait until TCNT1 reaches start = tick + delay - UART_SPIN_COMPENSATION_TICKS,
- *              then as NOW (Return Delay Time 2..6: at most about 130 cycles of spinning);
+ *              then as NOW (Return Delay Time 2..5: at most about 130 cycles of spinning);
  *       TIMER  uart_tx_start_tick = start, OCR1A = start - UART_COMPA_EARLY_TICKS;
  *              TIMER1_COMPA spins from there to start, then as NOW.
  * - SKIP (uart_skip_count > 0, tested second): a byte of another servo's packet, after its
- *   LENGTH: read, counted down and forgotten, in about 30 cycles with the interrupt's own.
+ *   LENGTH: read, counted down and forgotten, in 34 cycles with the interrupt's response and
+ *   vector jump (ATmega88).
  * - the sniff (uart_sniff 0..UART_SNIFF_CHECKSUM, started by the main loop with the ring and
  *   the finder empty; uart.h): reads the header FF FF ID LENGTH in r24/r25 alone, holding it
- *   in its state (HEADER below, about 45 cycles a byte with the interrupt's own), then frames
- *   and sums INSTRUCTION PARAMS CHECKSUM as they arrive and holds them in the ring without
- *   waking the main loop. Its fate, decided at the ID and the instruction (UART_FATE_*):
+ *   in its state (HEADER below, 50 to 60 cycles a byte with the interrupt's response and
+ *   vector jump), then frames and sums INSTRUCTION PARAMS CHECKSUM as they arrive (about 85
+ *   cycles a byte) and holds them in the ring without waking the main loop. Its fate,
+ *   decided at the ID and the instruction (UART_FATE_*):
  *     ARM        this servo's, instruction in uart_sniff_mask (and a WRITE's start address
  *                past the EEPROM area): at the last byte before the checksum the reply is
  *                ARMED as above, so neither the main loop's latency nor its long passes (the
  *                control tick) delay it. A PING (LENGTH 2) starts the loaded ready reply; any
  *                other packet streams the loaded reply's header FF FF ID, and the UDRE ISR
  *                waits for the main loop to publish the rest;
- *     DROP       another servo's (POLICY.md "Framing and bus": parsed to its end by its
+ *     DROP       another servo's (docs/policy.md "Framing and bus": parsed to its end by its
  *                LENGTH and ignored): at its LENGTH the LENGTH bytes still to come are
  *                skipped (SKIP above) and the sniff waits for the next packet's header; its
  *                header never reaches the ring;
