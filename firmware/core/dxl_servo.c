@@ -49,16 +49,6 @@ bool dxl_servo_answers(const dxl_servo_t *servo, uint8_t id, uint8_t instruction
   return id == servo->table[CT_ADDR_ID] && servo->table[CT_ADDR_STATUS_RETURN_LEVEL] >= min_status_level(instruction);
 }
 
-uint8_t dxl_servo_stream_mask(const dxl_servo_t *servo) {
-  /* min_status_level() per streamed instruction: PING 0, READ 1, WRITE and REG_WRITE 2. */
-  static const DXL_FLASH uint8_t mask_from_level[] = {
-      1u << DXL_INST_PING,
-      (1u << DXL_INST_PING) | (1u << DXL_INST_READ),
-      (1u << DXL_INST_PING) | (1u << DXL_INST_READ) | (1u << DXL_INST_WRITE) | (1u << DXL_INST_REG_WRITE),
-  };
-  const uint8_t level = servo->table[CT_ADDR_STATUS_RETURN_LEVEL];
-  return mask_from_level[level > STATUS_LEVEL_ALL ? STATUS_LEVEL_ALL : level];
-}
 
 static bool window_overlaps(uint8_t start, uint8_t len, uint8_t first_addr, uint8_t last_addr) {
   return start <= last_addr && (uint16_t)start + len > first_addr;
@@ -138,6 +128,23 @@ static uint8_t after_flags_of_write(uint8_t start, uint8_t len) {
     after |= DXL_AFTER_APPLY_BAUD;
   }
   return after;
+}
+
+uint8_t dxl_servo_stream_mask(const dxl_servo_t *servo) {
+  /* min_status_level() per streamed instruction: PING 0, READ 1, WRITE, REG_WRITE and
+   * ACTION 2. */
+  static const DXL_FLASH uint8_t mask_from_level[] = {
+      1u << DXL_INST_PING,
+      (1u << DXL_INST_PING) | (1u << DXL_INST_READ),
+      (1u << DXL_INST_PING) | (1u << DXL_INST_READ) | (1u << DXL_INST_WRITE) | (1u << DXL_INST_REG_WRITE) |
+          (1u << DXL_INST_ACTION),
+  };
+  const uint8_t level = servo->table[CT_ADDR_STATUS_RETURN_LEVEL];
+  uint8_t mask = mask_from_level[level > STATUS_LEVEL_ALL ? STATUS_LEVEL_ALL : level];
+  if (servo->table[CT_ADDR_REGISTERED_INSTRUCTION] != 0 && after_flags_of_write(servo->reg_start, servo->reg_len) != 0) {
+    mask &= (uint8_t)~(1u << DXL_INST_ACTION); /* it writes the EEPROM area: answered once stored */
+  }
+  return mask;
 }
 
 static void plan_write(dxl_response_t *r, uint8_t action, uint8_t start, const uint8_t *data, uint8_t len) {

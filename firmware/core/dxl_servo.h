@@ -89,8 +89,9 @@ bool dxl_servo_answers(const dxl_servo_t *servo, uint8_t id, uint8_t instruction
 
 /* Streamed replies: which unicast packets to this servo the firmware may start answering from
  * the RX interrupt, before the main loop has seen them (docs/firmware.md "The sniff"). Bit i
- * of the mask is set when instruction i is one of PING, READ, WRITE, REG_WRITE and is
- * answered (dxl_servo_answers) at the current Status Return Level. A packet streams when
+ * of the mask is set when instruction i is one of PING, READ, WRITE, REG_WRITE, ACTION and is
+ * answered (dxl_servo_answers) at the current Status Return Level; ACTION only while the
+ * registered write, if any, leaves the EEPROM area alone. A packet streams when
  *   its ID is this servo's, its instruction's bit is set, and, for a WRITE with at least
  *   one parameter, that first parameter (the start address) is >= DXL_STREAM_WRITE_MIN_ADDR
  *   (a write of the EEPROM area is answered only once stored).

@@ -54,10 +54,11 @@
  * (uart.h: 6 cycles after the vector is entered), counted from the code below and rounded
  * down, so a late reply is never early: the finder's byte 30 cycles (its path tests the armed
  * state, the skip count and the header states first), an armed checksum that differs 27, the
- * byte that ends the sniff (from its checksum state) 53. */
+ * byte that ends the sniff (from its checksum state) 40 (sim_servo's ACTION at Return Delay
+ * Time 250 and 254 measures it: +0.00..+0.50 us, never early). */
 #define OFF_READ_LATE_TICKS 3
 #define MISMATCH_READ_LATE_TICKS 3
-#define HAND_OVER_READ_LATE_TICKS 6
+#define HAND_OVER_READ_LATE_TICKS 5
 
 /* Z = &uart_rx_ring[index & UART_RX_RING_MASK] (index: a register; Z may be it). */
 .macro RING_SLOT_Z index

@@ -130,7 +130,7 @@ static void test_a_streamed_packet_is_answered_at_once_with_the_header_it_stream
           continue;
         }
         streamed_instructions++;
-        assert_true(instruction >= DXL_INST_PING && instruction <= DXL_INST_REG_WRITE);
+        assert_true(instruction >= DXL_INST_PING && instruction <= DXL_INST_ACTION);
         for (unsigned fill = 0; fill < 2u; fill++) {
           memset(params, fill ? 0xFF : 0x01, sizeof params);
           for (unsigned count = 0; count <= 253u; count++) {
@@ -149,8 +149,25 @@ static void test_a_streamed_packet_is_answered_at_once_with_the_header_it_stream
       }
     }
   }
-  /* PING at every level; READ at 1 and 2; WRITE and REG_WRITE at 2: 1+2+4 per variant. */
-  assert_int_equal(streamed_instructions, 4u * (1u + 2u + 4u));
+  /* PING at every level; READ at 1 and 2; WRITE, REG_WRITE and ACTION at 2: 1+2+5 per
+   * variant. */
+  assert_int_equal(streamed_instructions, 4u * (1u + 2u + 5u));
+}
+
+/* An ACTION whose registered write changes the EEPROM area is answered once the values are
+ * stored (docs/policy.md "Replies"), so its reply cannot start before the main loop has seen
+ * it: not streamed. The same ACTION with a RAM write registered is. */
+static void test_an_action_that_writes_the_eeprom_area_is_not_streamed(void **state) {
+  (void)state;
+  dxl_servo_t servo;
+  given_servo(&servo, 2);
+  servo.table[CT_ADDR_REGISTERED_INSTRUCTION] = 1;
+  servo.reg_start = CT_ADDR_RETURN_DELAY_TIME;
+  servo.reg_len = 1;
+  servo.reg_data[0] = 0;
+  assert_int_equal(dxl_servo_stream_mask(&servo) & (1u << DXL_INST_ACTION), 0);
+  servo.reg_start = CT_ADDR_LED;
+  assert_int_not_equal(dxl_servo_stream_mask(&servo) & (1u << DXL_INST_ACTION), 0);
 }
 
 int main(void) {
@@ -158,6 +175,7 @@ int main(void) {
       cmocka_unit_test(test_the_early_answer_decision_agrees_with_prepare_for_every_packet),
       cmocka_unit_test(test_the_ready_ping_reply_is_the_prepared_one_in_every_condition),
       cmocka_unit_test(test_a_streamed_packet_is_answered_at_once_with_the_header_it_streams),
+      cmocka_unit_test(test_an_action_that_writes_the_eeprom_area_is_not_streamed),
   };
   return cmocka_run_group_tests_name("fast reply path (" AX12_PROFILE_NAME ")", tests, NULL, NULL);
 }

@@ -130,6 +130,7 @@ static void test_reply_starts_two_us_times_return_delay_time_after_the_stop_bit(
       {"PING", DXL_INST_PING, {0, 0}, 0, 0},
       {"READ 2", DXL_INST_READ, {36, 2}, 2, 2},
       {"WRITE 1", DXL_INST_WRITE, {25, 0}, 2, 0},
+      {"ACTION", DXL_INST_ACTION, {0, 0}, 0, 0},
   };
   enum { KINDS = sizeof kinds / sizeof kinds[0], RDTS = sizeof rdts };
   sim_cycles_t lo[KINDS][RDTS];
@@ -144,6 +145,10 @@ static void test_reply_starts_two_us_times_return_delay_time_after_the_stop_bit(
       pause[k][r] = 0;
       pause_lo[k][r] = SIM_CYCLES_NEVER;
       for (unsigned phase = 0; phase < 12; phase++) {
+        if (kinds[k].instruction == DXL_INST_ACTION) {
+          uint8_t reply[64]; /* something to run: ACTION is handed to the main loop, not armed */
+          (void)harness_request(&h, 1, DXL_INST_REG_WRITE, HP(25, 0), STATUS_LEN(0), reply);
+        }
         world_run_until(h.world, h.world->now + sim_us(37u * phase + 3u));
         const wire_timing_t t =
             request_timing(&h, 1, kinds[k].instruction, kinds[k].params, kinds[k].count, STATUS_LEN(kinds[k].reply_params));
@@ -169,6 +174,38 @@ static void test_reply_starts_two_us_times_return_delay_time_after_the_stop_bit(
         fail_msg("%s, RDT %u: the reply starts %.2f..%.2f us after the stop bit, not within 2 us of %u us",
                  kinds[k].name, rdts[r], sim_cycles_to_us(lo[k][r]), sim_cycles_to_us(hi[k][r]), 2u * rdts[r]);
       }
+    }
+  }
+  harness_close(&h);
+}
+
+/* A reply the main loop composes after the packet (here a broadcast PING, which the 2006
+ * manual answers; also RESET, unknown instructions and Checksum Errors: docs/firmware.md
+ * "Reply timing") starts 2 us x Return Delay Time after the stop bit, within half a
+ * microsecond (one Timer1 tick), when that leaves the main loop time to compose it; at small
+ * delays it starts once composed, never early. */
+static void test_a_reply_the_main_loop_composes_starts_on_time_when_the_delay_allows(void **state) {
+  (void)state;
+  harness_t h;
+  open_one(&h, NULL);
+  static const uint8_t rdts[] = {0, 10, 100, 250, 254};
+  for (size_t r = 0; r < sizeof rdts; r++) {
+    write_byte(&h, 1, 5, rdts[r]);
+    sim_cycles_t lo = SIM_CYCLES_NEVER;
+    sim_cycles_t hi = 0;
+    for (unsigned phase = 0; phase < 12; phase++) {
+      world_run_until(h.world, h.world->now + sim_us(37u * phase + 3u));
+      const wire_timing_t t = request_timing(&h, DXL_ID_BROADCAST, DXL_INST_PING, NULL, 0, STATUS_LEN(0));
+      lo = t.latency < lo ? t.latency : lo;
+      hi = t.latency > hi ? t.latency : hi;
+    }
+    const double expected = 2.0 * rdts[r] * SIM_CYCLES_PER_US;
+    printf("broadcast PING RDT %3u: reply starts %.2f..%.2f us after the stop bit; error %+.2f..%+.2f us\n", rdts[r],
+           sim_cycles_to_us(lo), sim_cycles_to_us(hi), ((double)lo - expected) / SIM_CYCLES_PER_US,
+           ((double)hi - expected) / SIM_CYCLES_PER_US);
+    assert_true((double)lo >= expected - 0.5 * SIM_CYCLES_PER_US);
+    if (rdts[r] >= 100) {
+      assert_true((double)hi <= expected + 0.5 * SIM_CYCLES_PER_US);
     }
   }
   harness_close(&h);
@@ -549,6 +586,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_ping_is_answered_on_the_wire),
       cmocka_unit_test(test_reply_starts_two_us_times_return_delay_time_after_the_stop_bit),
+      cmocka_unit_test(test_a_reply_the_main_loop_composes_starts_on_time_when_the_delay_allows),
       cmocka_unit_test(test_a_packet_cut_before_its_checksum_is_dropped_and_the_next_answered),
       cmocka_unit_test(test_a_baud_change_replies_at_the_old_baud_then_only_the_new_one_works),
       cmocka_unit_test(test_an_id_change_is_answered_with_the_old_id),
