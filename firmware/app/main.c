@@ -8,9 +8,9 @@
  *      last byte, apply what follows it (factory reset, new baud);
  *   2. receive: the packet whose reply the RX ISR's sniff armed (prepare and publish it
  *      before its checksum, commit after), or ring bytes through the packet finder;
- *   3. control tick (1 kHz): the sniff's and the skip's timeouts, finder gap timeout, ADC,
- *      publish Present Position / Voltage / Temperature, control_tick(), LED, ready PING
- *      reply;
+ *   3. control tick (1 kHz): the sniff's and the skip's timeouts, finder gap timeout, ADC into
+ *      the sensors, control_tick() (which writes the Present items from them), LED, ready
+ *      PING reply;
  *   4. EEPROM: one byte of a pending image write when the EEPROM is ready;
  *   5. idle sleep unless an ISR set the wake flag during the pass.
  *
@@ -65,6 +65,7 @@ static bool reply_waits_for_nvm; /* response is loaded; send it once the image i
 static uint8_t after_reply;      /* DXL_AFTER_* to apply once the reply has left */
 
 static uint8_t adc_slot;
+static dxl_sensors_t sensors; /* the latest reading of each ADC channel, in the control's units */
 /* Sniff: one that has matched some bytes ends when no byte came for SNIFF_MAX_MS (a byte at
  * 9600 baud takes about 1 ms). The bytes it held then reach the finder stamped up to
  * SNIFF_MAX_MS + 1 late, which is what the finder's 100 ms gap rule can be off by. */
@@ -319,16 +320,18 @@ static void service_reply(void) {
   }
 }
 
-static void publish_adc(uint8_t channel, uint16_t reading) {
+/* A finished conversion into the sensors the control tick reads (it writes the Present*
+ * items from them). */
+static void take_adc(uint8_t channel, uint16_t reading) {
   switch (channel) {
   case ADC_CH_POT:
-    ct_set_u16(servo.table, CT_ADDR_PRESENT_POSITION, reading);
+    sensors.position_counts = reading;
     break;
   case ADC_CH_SUPPLY:
-    servo.table[CT_ADDR_PRESENT_VOLTAGE] = adc_supply_decivolts(reading);
+    sensors.voltage_dv = adc_supply_decivolts(reading);
     break;
   default:
-    servo.table[CT_ADDR_PRESENT_TEMPERATURE] = adc_temperature_c(reading);
+    sensors.temperature_c = adc_temperature_c(reading);
     break;
   }
 }
@@ -387,11 +390,11 @@ static void service_tick(void) {
     finder_dirty = true; /* rescan what came before the gap */
   }
   if (!adc_busy()) {
-    publish_adc(adc_sequence[adc_slot], adc_result());
+    take_adc(adc_sequence[adc_slot], adc_result());
     adc_slot = (uint8_t)((adc_slot + 1u) % ADC_SEQUENCE_LENGTH);
     adc_start(adc_sequence[adc_slot]);
   }
-  const uint8_t conditions = control_tick(&servo);
+  const uint8_t conditions = control_tick(&servo, &sensors);
   __asm__ __volatile__("" ::: "memory"); /* the RX ISR may have armed meanwhile */
   control_tick_count++;
   update_led();
@@ -413,14 +416,15 @@ static void power_up(void) {
   timebase_init();
   adc_init();
   /* Present values first: Goal Position = Present Position (docs/policy.md "Power-up"). */
-  const uint16_t position = adc_read_blocking(ADC_CH_POT);
+  take_adc(ADC_CH_POT, adc_read_blocking(ADC_CH_POT));
+  take_adc(ADC_CH_SUPPLY, adc_read_blocking(ADC_CH_SUPPLY));
+  take_adc(ADC_CH_TEMP, adc_read_blocking(ADC_CH_TEMP));
   const uint8_t *const stored = nvm_load();
-  dxl_servo_power_up(&servo, stored, position);
+  dxl_servo_power_up(&servo, stored, sensors.position_counts); /* the first control tick writes
+                                                                 the other Present items */
   if (stored == NULL) {
     nvm_persist(servo.table); /* blank or corrupt image: factory defaults, written back */
   }
-  publish_adc(ADC_CH_SUPPLY, adc_read_blocking(ADC_CH_SUPPLY));
-  publish_adc(ADC_CH_TEMP, adc_read_blocking(ADC_CH_TEMP));
   adc_start(adc_sequence[0]);
   dxl_finder_init(&finder);
   refresh_ping_reply();
