@@ -7,7 +7,7 @@
  * heard must be the same bytes on both, with two differences counted, not failed:
  *   - a candidate packet for another servo: the ELF's sniff skips it by its LENGTH without a
  *     checksum test or a rescan, the finder rescans it when its checksum fails
- *     (docs/policy.md "Resynchronisation"); counted until the first piece after the next gap;
+ *     (docs/policy.md "Resynchronisation"); counted up to the next gap and the WRITEs after it;
  *   - a collision on the wire: a late reply (to a packet a rescan found) meets the master's
  *     next packet; the host bus sends every reply before the master's next byte.
  * Only items both sides hold alike are read (the host bus has no plant: no Present Position,
@@ -181,8 +181,8 @@ static void run_stream(uint32_t seed) {
      * another servo is skipped by the ELF by its LENGTH, without a checksum test or a
      * rescan, and framed by the finder, which rescans it when its checksum fails. */
     const dxl_finder_t *finder = &host.servos[0].finder;
-    /* (until the piece after the next gap, which ends every partial packet on both sides:
-     * the host bus answers what it rescans then with the first byte after the gap) */
+    /* (up to the next gap, which ends every partial packet on both sides, and the WRITEs
+     * after it: the host bus answers what it rescans then with the first byte after it) */
     another_servos_since_gap |=
         finder->fill > 2u && finder->bytes[2] != OWN_ID && finder->bytes[2] != DXL_ID_BROADCAST;
     host_bus_send(&host, s.bytes, s.length);
