@@ -19,6 +19,7 @@
 #include "bus_steps.h"
 #include "dxl_protocol.h"
 #include "policy_table.h"
+#include "xorshift32.h"
 
 #define MAX_FILES 256u
 #define PATH_CHARS 512u
@@ -299,15 +300,7 @@ typedef struct {
   uint32_t rng;
 } stream_t;
 
-static uint32_t next_random(stream_t *s) {
-  /* xorshift32: fixed seed, same stream on every run and host */
-  uint32_t x = s->rng;
-  x ^= x << 13;
-  x ^= x >> 17;
-  x ^= x << 5;
-  s->rng = x;
-  return x;
-}
+static uint32_t next_random(stream_t *s) { return xorshift32_next(&s->rng); }
 
 static void stream_put(stream_t *s, const uint8_t *bytes, size_t count) {
   if (s->length + count > s->capacity) {

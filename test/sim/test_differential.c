@@ -26,6 +26,7 @@
 #include "dxl_table.h"
 #include "host_bus.h"
 #include "sim_harness.h"
+#include "xorshift32.h"
 
 #define OWN_ID 1u
 #define SEGMENTS 3000u
@@ -36,14 +37,7 @@ typedef struct {
   uint32_t state;
 } rng_t;
 
-static uint32_t next(rng_t *r) { /* xorshift32: the same stream on every run */
-  uint32_t x = r->state;
-  x ^= x << 13;
-  x ^= x >> 17;
-  x ^= x << 5;
-  r->state = x;
-  return x;
-}
+static uint32_t next(rng_t *r) { return xorshift32_next(&r->state); }
 
 static uint8_t pick(rng_t *r, const uint8_t *from, size_t count) { return from[next(r) % count]; }
 
