@@ -4,22 +4,22 @@
  *
  * Execution contexts (docs/firmware.md): the ISRs in hal/ move bytes and start replies;
  * everything else runs here, in one loop that never blocks:
- *   1. reply bookkeeping: send a reply that waited for its EEPROM write; after a reply's
- *      last byte, apply what follows it (factory reset, new baud);
+ *   1. reply bookkeeping: after a reply's last byte, apply what follows it (factory reset,
+ *      new baud);
  *   2. receive: the packet whose reply the RX ISR's sniff armed (prepare and publish it
  *      before its checksum, commit after), or ring bytes through the packet finder;
  *   3. control tick (1 kHz): the sniff's and the skip's timeouts, finder gap timeout, ADC into
  *      the sensors, control_tick() (which writes the Present items from them), LED, ready
  *      PING reply;
- *   4. EEPROM: one byte of a pending image write when the EEPROM is ready;
+ *   4. EEPROM: one byte of a pending settings write when the EEPROM is ready (nvm.h);
  *   5. idle sleep unless an ISR set the wake flag during the pass.
  *
  * Replies (docs/firmware.md "Reply timing"): the sniff in the RX ISR frames a packet to this
  * servo and arms its reply at the last byte before the checksum, so the reply starts on time
  * whatever the main loop is doing; dxl_servo_prepare() is pure, so the rest is prepared while
- * the checksum is still on the wire. Replies whose packet changes the EEPROM are never armed:
- * the packet is committed, the image written, and only then the reply sent, so the reply
- * proves the value is stored.
+ * the checksum is still on the wire. A write of the EEPROM area is answered like any other
+ * write and stored in the background after its commit (dxl_after.h); only a write from the ID
+ * or the Baud Rate on is left to the main loop, which applies a new baud after the reply.
  */
 #include <avr/interrupt.h>
 #include <util/atomic.h>
@@ -61,7 +61,6 @@ static bool armed;               /* the sniff armed the reply of the packet that
                                     have started it */
 static bool finder_dirty;        /* bytes pushed or a result taken since dxl_finder_next() last
                                     said DXL_FIND_NONE */
-static bool reply_waits_for_nvm; /* response is loaded; send it once the image is written */
 static uint8_t after_reply;      /* DXL_AFTER_* to apply once the reply has left */
 
 static uint8_t adc_slot;
@@ -97,22 +96,12 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
   uart_set_baud(baud_register);
 }
 
-/* After commit (or reject): persist, then reply or act at once. */
-static void send_response(void) {
-  const uint8_t after = response.after;
-  /* dxl_after.h: a write of the EEPROM area is stored before its reply. */
-  const bool persist_first = dxl_after_before_reply(&servo, after, NULL);
-  if (response.length == 0) {
-    dxl_after_reply(&servo, after, NULL);
-    return;
-  }
-  after_reply = after;
+/* Starts the prepared (or rejected) packet's reply, its bytes final once prepared; what must
+ * follow its end (dxl_after.h) is kept for service_reply(). */
+static void start_reply(void) {
+  after_reply = response.after;
   uart_reply_load(response.bytes, response.length, response.delay_us);
-  if (persist_first) {
-    reply_waits_for_nvm = true;
-  } else {
-    uart_reply_start();
-  }
+  uart_reply_start();
 }
 
 /* Whether the armed packet's reply is the streamed one the main loop prepares and commits
@@ -123,21 +112,21 @@ static bool reply_is_streamed(const dxl_packet_t *packet) {
 
 static void on_packet(const dxl_packet_t *packet) {
   dxl_servo_prepare(&servo, packet, &response);
-  if (response.length != 0 && response.after == 0) {
-    /* The reply bytes are final once prepared: start it before committing. */
-    uart_reply_load(response.bytes, response.length, response.delay_us);
-    uart_reply_start();
-    dxl_servo_commit(&servo, &response);
-    after_reply = 0;
-    return;
+  if (response.length != 0) {
+    start_reply();
   }
   dxl_servo_commit(&servo, &response);
-  send_response();
+  dxl_after_commit(&servo, response.after, NULL);
+  if (response.length == 0) {
+    dxl_after_reply(&servo, response.after, NULL); /* no reply to wait for */
+  }
 }
 
 static void on_bad_checksum(const dxl_packet_t *packet) {
   dxl_servo_reject_checksum(&servo, packet, &response);
-  send_response();
+  if (response.length != 0) {
+    start_reply();
+  }
 }
 
 /* The PING reply is rebuilt whenever the link is idle and nothing is armed (so no ISR reads
@@ -192,7 +181,7 @@ static void adopt_sniffed(void) {
 /* Bytes of the armed packet still in the ring or on the wire, its checksum included. */
 static uint8_t armed_bytes_left(void) { return (uint8_t)(uart_sniff_end - uart_rx_tail); }
 
-static bool link_free(void) { return uart_reply_state() == UART_REPLY_IDLE && !reply_waits_for_nvm; }
+static bool link_free(void) { return uart_reply_state() == UART_REPLY_IDLE; }
 
 /* Moves up to max_bytes waiting in the ring into the finder (as far as it has room), stamped
  * with the current millisecond, in one batch (a few cycles a byte); the finder examines them
@@ -259,6 +248,7 @@ static void service_rx(void) {
         (void)dxl_finder_next(&finder, &packet);
         if (reply_is_streamed(&packet)) {
           dxl_servo_commit(&servo, &response);
+          dxl_after_commit(&servo, response.after, NULL); /* a store at most (dxl_servo.h) */
         }
         after_reply = 0;
         finder_dirty = false;
@@ -304,13 +294,6 @@ static void service_rx(void) {
 
 static void service_reply(void) {
   adopt_sniffed(); /* before DONE is taken for a reply of its own */
-  if (reply_waits_for_nvm) {
-    if (!nvm_busy()) {
-      reply_waits_for_nvm = false;
-      uart_reply_start_now(); /* the delay is long past: the write took milliseconds */
-    }
-    return;
-  }
   if (!armed && uart_reply_state() == UART_REPLY_DONE) {
     uart_reply_finish();
     const uint8_t after = after_reply;
@@ -405,10 +388,9 @@ static void service_tick(void) {
   }
 }
 
-/* Work that no ISR flags: an EEPROM byte to write, a reply whose EEPROM write has finished.
- * If one of these becomes true after this test, EE_READY is already pending and ends the
- * sleep at once. */
-static bool work_without_interrupt(void) { return nvm_work_ready() || (reply_waits_for_nvm && !nvm_busy()); }
+/* Work that no ISR flags: an EEPROM byte to write. If it becomes possible after this test,
+ * EE_READY is already pending and ends the sleep at once. */
+static bool work_without_interrupt(void) { return nvm_work_ready(); }
 
 static void power_up(void) {
   board_init();
@@ -416,14 +398,15 @@ static void power_up(void) {
   timebase_init();
   adc_init();
   /* Present values first: Goal Position = Present Position (docs/policy.md "Power-up"). */
-  take_adc(ADC_CH_POT, adc_read_blocking(ADC_CH_POT));
-  take_adc(ADC_CH_SUPPLY, adc_read_blocking(ADC_CH_SUPPLY));
-  take_adc(ADC_CH_TEMP, adc_read_blocking(ADC_CH_TEMP));
+  for (uint8_t slot = 1; slot < ADC_SEQUENCE_LENGTH; slot++) { /* every channel once */
+    const uint8_t channel = adc_sequence[slot];
+    take_adc(channel, adc_read_blocking(channel));
+  }
   const uint8_t *const stored = nvm_load();
   dxl_servo_power_up(&servo, stored, sensors.position_counts); /* the first control tick writes
                                                                  the other Present items */
   if (stored == NULL) {
-    nvm_persist(servo.table); /* blank or corrupt image: factory defaults, written back */
+    nvm_persist(servo.table); /* no valid slot: factory defaults, written back */
   }
   adc_start(adc_sequence[0]);
   dxl_finder_init(&finder);

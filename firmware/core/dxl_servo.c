@@ -106,7 +106,7 @@ DXL_ONE_COPY void dxl_servo_power_up(dxl_servo_t *servo, const uint8_t *eeprom_a
   ct_load_factory_eeprom(servo->table);
   if (eeprom_area != NULL) {
     memcpy(servo->table, eeprom_area, CT_EEPROM_SIZE);
-    ct_load_factory_read_only(servo->table); /* model, version, calibration come from this firmware */
+    ct_repair_stored_eeprom(servo->table); /* model, version from this firmware; no item out of range */
   }
   ct_load_power_up_ram(servo->table, present_position);
 }
@@ -141,8 +141,9 @@ uint8_t dxl_servo_stream_mask(const dxl_servo_t *servo) {
   };
   const uint8_t level = servo->table[CT_ADDR_STATUS_RETURN_LEVEL];
   uint8_t mask = mask_from_level[level > STATUS_LEVEL_ALL ? STATUS_LEVEL_ALL : level];
-  if (servo->table[CT_ADDR_REGISTERED_INSTRUCTION] != 0 && after_flags_of_write(servo->reg_start, servo->reg_len) != 0) {
-    mask &= (uint8_t)~(1u << DXL_INST_ACTION); /* it writes the EEPROM area: answered once stored */
+  if (servo->table[CT_ADDR_REGISTERED_INSTRUCTION] != 0 &&
+      (after_flags_of_write(servo->reg_start, servo->reg_len) & DXL_AFTER_APPLY_BAUD) != 0) {
+    mask &= (uint8_t)~(1u << DXL_INST_ACTION); /* it writes the Baud Rate: applied after the reply */
   }
   return mask;
 }

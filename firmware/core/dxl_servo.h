@@ -72,8 +72,9 @@ typedef struct {
 } dxl_servo_t;
 
 /* Power-up (docs/policy.md "Power-up"): the EEPROM area from eeprom_area (CT_EEPROM_SIZE bytes,
- * already integrity-checked by the caller) or factory defaults when it is NULL; the RAM area
- * at its power-up values with Goal Position = present_position. */
+ * whose check the caller has verified; items out of range are repaired, ct_repair_stored_eeprom)
+ * or factory defaults when it is NULL; the RAM area at its power-up values with Goal Position
+ * = present_position. */
 void dxl_servo_power_up(dxl_servo_t *servo, const uint8_t *eeprom_area, uint16_t present_position);
 
 /* RESET: factory defaults for the whole table; the RAM area as at power-up with the present
@@ -91,14 +92,16 @@ bool dxl_servo_answers(const dxl_servo_t *servo, uint8_t id, uint8_t instruction
  * the RX interrupt, before the main loop has seen them (docs/firmware.md "The sniff"). Bit i
  * of the mask is set when instruction i is one of PING, READ, WRITE, REG_WRITE, ACTION and is
  * answered (dxl_servo_answers) at the current Status Return Level; ACTION only while the
- * registered write, if any, leaves the EEPROM area alone. A packet streams when
+ * registered write, if any, leaves the Baud Rate alone. A packet streams when
  *   its ID is this servo's, its instruction's bit is set, and, for a WRITE with at least
  *   one parameter, that first parameter (the start address) is >= DXL_STREAM_WRITE_MIN_ADDR
- *   (a write of the EEPROM area is answered only once stored).
+ *   (a write from the ID or the Baud Rate on is answered by the main loop: a new baud
+ *   applies after the reply).
  * Contract, tested over every LENGTH and parameter: such a packet's dxl_servo_prepare()
- * reply is non-empty, has after == 0 and starts FF FF ID, so its first three bytes can leave
- * before it is prepared. */
-#define DXL_STREAM_WRITE_MIN_ADDR CT_EEPROM_SIZE
+ * reply is non-empty, its after holds neither DXL_AFTER_FACTORY_RESET nor
+ * DXL_AFTER_APPLY_BAUD (a store of the EEPROM area starts at the commit, whenever that comes)
+ * and it starts FF FF ID, so its first three bytes can leave before it is prepared. */
+#define DXL_STREAM_WRITE_MIN_ADDR (CT_ADDR_BAUD_RATE + 1u)
 #define DXL_STREAM_HEADER_BYTES 3u
 uint8_t dxl_servo_stream_mask(const dxl_servo_t *servo);
 

@@ -40,10 +40,13 @@ static const DXL_FLASH uint8_t item_index_by_addr[CT_SIZE] = {
 
 uint8_t ct_item_index_at(uint8_t addr) { return item_index_by_addr[addr]; }
 
-static void load_defaults(uint8_t *table, uint8_t first_addr, uint8_t end_addr, bool read_only_only) {
+/* Factory defaults into items first_addr..end_addr-1; with keep_valid_settings, a writable
+ * item whose value is inside its range (ct_check_write on an unlocked table) is kept. */
+static void load_defaults(uint8_t *table, uint8_t first_addr, uint8_t end_addr, bool keep_valid_settings) {
   for (uint8_t i = 0; i < CT_ITEM_COUNT; i++) {
     const ct_desc_t d = ct_items[i];
-    if (d.addr < first_addr || d.addr >= end_addr || (read_only_only && d.access == CT_RW)) {
+    if (d.addr < first_addr || d.addr >= end_addr ||
+        (keep_valid_settings && d.access == CT_RW && ct_check_write(table, d.addr, &table[d.addr], d.size_bytes) == 0)) {
       continue;
     }
     if (d.size_bytes == 2) {
@@ -56,7 +59,7 @@ static void load_defaults(uint8_t *table, uint8_t first_addr, uint8_t end_addr, 
 
 void ct_load_factory_eeprom(uint8_t *table) { load_defaults(table, 0, CT_EEPROM_SIZE, false); }
 
-void ct_load_factory_read_only(uint8_t *table) { load_defaults(table, 0, CT_EEPROM_SIZE, true); }
+void ct_repair_stored_eeprom(uint8_t *table) { load_defaults(table, 0, CT_EEPROM_SIZE, true); }
 
 void ct_load_power_up_ram(uint8_t *table, uint16_t present_position) {
   load_defaults(table, CT_EEPROM_SIZE, CT_SIZE, false);

@@ -61,9 +61,11 @@ static inline __attribute__((always_inline)) void ct_set_u16(uint8_t *table, uin
 
 /* Factory defaults of the EEPROM area (0..23). */
 void ct_load_factory_eeprom(uint8_t *table);
-/* Factory values of the items of the EEPROM area that are not writable (model number,
- * firmware version, calibration, reserved): they describe this firmware, not the image. */
-void ct_load_factory_read_only(uint8_t *table);
+/* A stored EEPROM area made safe to run (docs/policy.md "Power-up"): the items that are not
+ * writable (model number, firmware version, calibration, reserved) take this firmware's
+ * values, and every writable item outside the range a WRITE would accept takes its factory
+ * default; the others are kept. Lock must be off in table. */
+void ct_repair_stored_eeprom(uint8_t *table);
 /* Power-up values of the RAM area (24..49) from the EEPROM area and Present Position:
  * Goal Position = present_position, Torque Limit = Max Torque (docs/policy.md "Power-up"). */
 void ct_load_power_up_ram(uint8_t *table, uint16_t present_position);

@@ -1,46 +1,72 @@
-/* EEPROM image persistence. See nvm.h. */
+/* The persistent settings in two EEPROM slots. See nvm.h. */
 #include "nvm.h"
 
 #include <avr/eeprom.h>
 #include <avr/io.h>
 #include <stddef.h>
+#include <string.h>
 
 #include "dxl_image.h"
 
 #define IMAGE_EEPROM_ADDR 0u
 
-static uint8_t image[DXL_IMAGE_BYTES];
-/* Image bytes still to compare, from the end: the next offset is DXL_IMAGE_BYTES - this.
- * Zero (all done) at reset, so the firmware has no initialised data (no copy loop). */
-static uint8_t bytes_left;
+/* The slot being written (or last written): its bytes, its index and its next step. */
+static uint8_t slot_bytes[DXL_IMAGE_SLOT_BYTES];
+static uint8_t slot_index;
+/* Steps of dxl_image_write_offset() still to compare; zero (all done) at reset, so the
+ * firmware has no initialised data (no copy loop). */
+static uint8_t steps_left;
+/* The slot whose settings are in use and its sequence number (nvm_load, then each slot
+ * written to its end). */
+static uint8_t active_slot;
+static uint8_t active_sequence;
+
+static uint8_t *eeprom_addr(uint8_t slot, uint8_t offset) {
+  return (uint8_t *)(uintptr_t)(IMAGE_EEPROM_ADDR + dxl_image_slot_offset(slot) + offset);
+}
 
 /* EE_READY (tiny_isr.S) only clears EERIE: while enabled it is raised for as long as the
  * EEPROM is ready; its job is to wake the main loop after a write. */
 
-const uint8_t *nvm_load(void) {
+/* Not inlined: its frame holds both slots, which only boot needs (inlined into main, whose
+ * frame lives for ever, it would deepen the stack of every later call). */
+__attribute__((noinline)) const uint8_t *nvm_load(void) {
   /* Byte by byte: eeprom_read_byte() is linked anyway (nvm_service), eeprom_read_block() would
    * add 32 B of flash. */
+  uint8_t image[DXL_IMAGE_BYTES];
   for (uint8_t offset = 0; offset < DXL_IMAGE_BYTES; offset++) {
-    image[offset] = eeprom_read_byte((const uint8_t *)(uintptr_t)(IMAGE_EEPROM_ADDR + offset));
+    image[offset] = eeprom_read_byte(eeprom_addr(0, offset));
   }
-  return dxl_image_is_valid(image) ? &image[DXL_IMAGE_OFS_TABLE] : NULL;
+  const uint8_t newest = dxl_image_newest_slot(image);
+  if (newest == DXL_IMAGE_NO_SLOT) {
+    active_slot = 1; /* the first write goes to slot 0 */
+    return NULL;
+  }
+  memcpy(slot_bytes, &image[dxl_image_slot_offset(newest)], DXL_IMAGE_SLOT_BYTES);
+  active_slot = newest;
+  active_sequence = slot_bytes[DXL_IMAGE_OFS_SEQUENCE];
+  return &slot_bytes[DXL_IMAGE_OFS_TABLE];
 }
 
 void nvm_persist(const uint8_t *eeprom_area) {
-  dxl_image_build(image, eeprom_area);
-  bytes_left = DXL_IMAGE_BYTES;
+  slot_index = (uint8_t)(active_slot ^ 1u);
+  dxl_image_slot_build(slot_bytes, eeprom_area, (uint8_t)(active_sequence + 1u));
+  steps_left = DXL_IMAGE_SLOT_BYTES;
 }
 
-bool nvm_busy(void) { return bytes_left != 0 || !eeprom_is_ready(); }
-
-bool nvm_work_ready(void) { return bytes_left != 0 && eeprom_is_ready(); }
+bool nvm_work_ready(void) { return steps_left != 0 && eeprom_is_ready(); }
 
 void nvm_service(void) {
   while (nvm_work_ready()) {
-    const uint8_t offset = (uint8_t)(DXL_IMAGE_BYTES - bytes_left--);
-    uint8_t *const addr = (uint8_t *)(uintptr_t)(IMAGE_EEPROM_ADDR + offset);
-    if (eeprom_read_byte(addr) != image[offset]) {
-      eeprom_write_byte(addr, image[offset]);
+    const uint8_t offset = dxl_image_write_offset((uint8_t)(DXL_IMAGE_SLOT_BYTES - steps_left--));
+    uint8_t *const addr = eeprom_addr(slot_index, offset);
+    if (steps_left == 0) {
+      /* The sequence number (written now, or already right): this slot is in use. */
+      active_slot = slot_index;
+      active_sequence = slot_bytes[DXL_IMAGE_OFS_SEQUENCE];
+    }
+    if (eeprom_read_byte(addr) != slot_bytes[offset]) {
+      eeprom_write_byte(addr, slot_bytes[offset]);
       EECR |= _BV(EERIE);
       return;
     }

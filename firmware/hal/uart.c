@@ -80,11 +80,9 @@ void uart_init(uint8_t baud_register) {
   UCSR0B = UART_UCSR0B_LISTEN;
 }
 
-/* uart_rx.S, shared with the RX ISR and TIMER1_COMPA; interrupts off. uart_send_first:
- * drives the bus, writes the first byte (every status packet starts with 0xFF) and hands the
- * rest to the UDRE ISR. uart_start_at: the same once TCNT1 has reached tick (at once if it
- * has passed). */
-void uart_send_first(void);
+/* uart_rx.S, shared with the RX ISR and TIMER1_COMPA; interrupts off: once TCNT1 has
+ * reached tick (at once if it has passed), drives the bus, writes the first byte (every status
+ * packet starts with 0xFF) and hands the rest to the UDRE ISR. */
 void uart_start_at(uint16_t tick);
 
 /* Starts the loaded reply relative to rx_tick, the TCNT1 value the RX ISR read for the
@@ -142,10 +140,6 @@ void uart_reply_start(void) {
     /* The packet's last byte is the newest unless more came since. */
     reply_start_late(uart_rx_head == uart_rx_tail ? uart_rx_tick : TCNT1);
   }
-}
-
-void uart_reply_start_now(void) {
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { uart_send_first(); }
 }
 
 void uart_reply_publish(uint8_t length) {

@@ -12,14 +12,13 @@
  * is off (RXEN0 = 0: no own echo) from the first byte until TX-complete of the last byte.
  *
  * Reply timing (docs/policy.md "Replies"): the first byte is written to UDR0 2 us x Return Delay
- * Time after the RX interrupt of the instruction's last byte. Three ways to start it:
+ * Time after the RX interrupt of the instruction's last byte. Two ways to start it:
  *   - armed: the RX ISR's sniff (below) arms the reply at the packet's last byte before the
  *     checksum, with the checksum that completes it; the RX ISR starts it the moment that
  *     byte arrives and matches (RDT 0-1: writes UDR0 itself; short delays: spins on TCNT1;
  *     longer: sets OCR1A and TIMER1_COMPA starts it);
  *   - late: after the packet was handled, from the tick of its last byte if that moment is
- *     still ahead, at once otherwise (uart_reply_start);
- *   - now: after an EEPROM write, which takes milliseconds (uart_reply_start_now).
+ *     still ahead, at once otherwise (uart_reply_start).
  *
  * Execution contexts: USART_RX, USART_UDRE and TIMER1_COMPA (uart_rx.S), USART_TX (uart.c)
  * ISRs; every function here is for the main loop only.
@@ -82,7 +81,7 @@
 #define DXL_INST_PING_ASM 1
 #define DXL_INST_WRITE_ASM 3
 #define DXL_ID_BROADCAST_ASM 0xFE
-#define UART_SNIFF_WRITE_MIN_ADDR 24 /* DXL_STREAM_WRITE_MIN_ADDR */
+#define UART_SNIFF_WRITE_MIN_ADDR 5 /* DXL_STREAM_WRITE_MIN_ADDR */
 #define UART_STREAM_HEADER_BYTES 3   /* DXL_STREAM_HEADER_BYTES: FF FF ID */
 
 /* How an armed reply starts (uart_tx_mode), chosen by uart_reply_load from the delay. */
@@ -185,9 +184,6 @@ bool uart_reply_disarm(void);
  * popped): 2 us x RDT after that byte's RX interrupt if that is still ahead (TIMER1_COMPA,
  * or a spin of at most 16 ticks), else now. */
 void uart_reply_start(void);
-
-/* Starts the loaded reply now, whatever the Return Delay Time. */
-void uart_reply_start_now(void);
 
 /* DONE -> IDLE, once the main loop has acted on what follows the reply. */
 static inline void uart_reply_finish(void) { uart_tx_state = UART_REPLY_IDLE; }

@@ -141,7 +141,7 @@
   ldi r24, UART_SNIFF_BODY
   rjmp .Lsn_sum
 .Lsn_first_param:
-  lds r30, uart_sniff_instruction    /* a WRITE's start address: EEPROM area -> not armed */
+  lds r30, uart_sniff_instruction    /* a WRITE's start address: ID or baud -> not armed */
   cpi r30, DXL_INST_WRITE_ASM
   brne .Lsn_body
   cpi r25, UART_SNIFF_WRITE_MIN_ADDR
@@ -473,8 +473,8 @@ uart_isr_return:                     /* also TIMER1_COMPA's: the same registers 
 /* Shared by USART_RX (Return Delay Time 2-6), TIMER1_COMPA and the main loop's late start
  * (uart.c): spins until TCNT1 reaches Z (the start tick less UART_SPIN_COMPENSATION_TICKS),
  * drives the bus and writes the reply's first byte; uart_sending then hands the rest to the
- * UDRE ISR. Interrupts off; clobbers r24. C entries (call-clobbered registers only):
- * uart_start_at(tick) = the spin from Z = tick, uart_send_first() = no spin. */
+ * UDRE ISR. Interrupts off; clobbers r24. C entry (call-clobbered registers only):
+ * uart_start_at(tick) = the spin from Z = tick. */
   .section .text.uart_spin_and_send, "ax", @progbits
   .global uart_start_at
 uart_start_at:
@@ -485,8 +485,6 @@ uart_spin_and_send:
   lds r24, _SFR_MEM_ADDR(TCNT1H)
   cpc r24, r31
   brmi uart_spin_and_send            /* while (int16_t)(TCNT1 - Z) < 0 */
-  .global uart_send_first
-uart_send_first:
   sbi _SFR_IO_ADDR(PORTD), UART_BUS_DIR_BIT
   ldi r24, DXL_HEADER_BYTE_ASM        /* every status packet starts with it */
   sts _SFR_MEM_ADDR(UDR0), r24       /* the reply starts here */

@@ -3,18 +3,16 @@
 #include "dxl_after_port.h"
 #include "dxl_table.h"
 
-bool dxl_after_before_reply(const dxl_servo_t *servo, uint8_t after, void *port) {
-  if (!dxl_after_persists_first(after)) {
-    return false;
+void dxl_after_commit(const dxl_servo_t *servo, uint8_t after, void *port) {
+  if ((after & (DXL_AFTER_PERSIST | DXL_AFTER_FACTORY_RESET)) == DXL_AFTER_PERSIST) {
+    dxl_after_port_persist(port, servo->table);
   }
-  dxl_after_port_persist(port, servo->table);
-  return true;
 }
 
 void dxl_after_reply(dxl_servo_t *servo, uint8_t after, void *port) {
   if (after & DXL_AFTER_FACTORY_RESET) {
-    /* A power cut while the defaults are stored leaves an image whose CRC fails, which boots
-     * the same defaults. */
+    /* A power cut while the defaults are stored keeps the settings before the RESET
+     * (dxl_image.h): the servo comes back as it was, not half reset. */
     dxl_servo_factory_reset(servo);
     dxl_after_port_persist(port, servo->table);
   }

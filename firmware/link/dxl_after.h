@@ -3,9 +3,11 @@
  * host bus of the tests. Portable C; it reaches the board through dxl_after_port.h.
  *
  * A prepared response says what its packet changes beyond the table (response.after,
- * DXL_AFTER_*). Those changes are split around the reply:
- *   before the reply leaves: a write of the EEPROM area is stored (dxl_after_port_persist),
- *     so a reply proves that the settings survive a power cut (dxl_after_persists_first);
+ * DXL_AFTER_*). Those changes are split around the reply, whose bytes are final once prepared
+ * and which starts at its Return Delay Time whatever follows it:
+ *   when the packet is committed (dxl_after_commit), before, during or after its reply: a
+ *     write of the EEPROM area starts being stored, in the background (the reply does not
+ *     wait for it; dxl_image.h says how a power cut meanwhile keeps the old settings);
  *   after the reply's last stop bit, or at once when there is no reply (dxl_after_reply):
  *     RESET's factory defaults, stored; then a new Baud Rate, so the reply itself still
  *     leaves at the baud the request came at.
@@ -18,15 +20,16 @@
 
 #include "dxl_servo.h"
 
-/* True when the EEPROM area must be stored before the reply starts: a write of it. A RESET
- * answers first and stores its defaults after the reply. */
-static inline bool dxl_after_persists_first(uint8_t after) {
-  return (after & DXL_AFTER_PERSIST) != 0 && (after & DXL_AFTER_FACTORY_RESET) == 0;
+/* True when something must wait for the reply's end: RESET's defaults or a new baud. A
+ * packet whose after is otherwise (nothing, or only a store) can be answered and committed in
+ * any order. */
+static inline bool dxl_after_waits_for_reply(uint8_t after) {
+  return (after & (DXL_AFTER_FACTORY_RESET | DXL_AFTER_APPLY_BAUD)) != 0;
 }
 
-/* Stores the EEPROM area now if the reply must wait for it (dxl_after_persists_first), and
- * returns whether it did. */
-bool dxl_after_before_reply(const dxl_servo_t *servo, uint8_t after, void *port);
+/* Right after dxl_servo_commit(): starts storing the EEPROM area when the packet wrote it
+ * (RESET stores its defaults after the reply instead). */
+void dxl_after_commit(const dxl_servo_t *servo, uint8_t after, void *port);
 
 /* What follows the reply: factory reset (then stored), then the new baud. */
 void dxl_after_reply(dxl_servo_t *servo, uint8_t after, void *port);

@@ -55,14 +55,15 @@ void eeprom_store_seed(uint8_t *eeprom, size_t size, eeprom_profile_t profile, u
 }
 
 bool eeprom_store_image_fields(const uint8_t *eeprom, size_t size, uint8_t *id, uint8_t *baud_reg) {
-  if (size < DXL_IMAGE_BYTES || !dxl_image_is_valid(eeprom)) {
+  const uint8_t *const settings = size < DXL_IMAGE_BYTES ? NULL : dxl_image_settings(eeprom);
+  if (settings == NULL) {
     return false;
   }
   if (id) {
-    *id = eeprom[DXL_IMAGE_OFS_TABLE + CT_ADDR_ID];
+    *id = settings[CT_ADDR_ID];
   }
   if (baud_reg) {
-    *baud_reg = eeprom[DXL_IMAGE_OFS_TABLE + CT_ADDR_BAUD_RATE];
+    *baud_reg = settings[CT_ADDR_BAUD_RATE];
   }
   return true;
 }

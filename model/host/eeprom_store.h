@@ -19,12 +19,12 @@ typedef enum { EEPROM_PROFILE_AX12 = 0, EEPROM_PROFILE_AX12A = 1 } eeprom_profil
 bool eeprom_profile_parse(const char *name, eeprom_profile_t *profile);
 const char *eeprom_profile_name(eeprom_profile_t profile);
 
-/* A blank EEPROM (0xFF) holding, at address 0, a valid image of the profile's factory EEPROM
- * area with ID and Baud Rate replaced. */
+/* A blank EEPROM (0xFF) holding, from address 0, an image (dxl_image_build: slot 0) of the
+ * profile's factory EEPROM area with ID and Baud Rate replaced. */
 void eeprom_store_seed(uint8_t *eeprom, size_t size, eeprom_profile_t profile, uint8_t id, uint8_t baud_reg);
 
-/* True when the EEPROM starts with a valid image; then *id and *baud_reg (if not NULL)
- * receive its ID and Baud Rate. */
+/* True when the EEPROM holds a valid image; then *id and *baud_reg (if not NULL) receive the
+ * ID and Baud Rate of its newest valid slot, as stored. */
 bool eeprom_store_image_fields(const uint8_t *eeprom, size_t size, uint8_t *id, uint8_t *baud_reg);
 
 /* Reads path into eeprom[0..size): a shorter file leaves the rest blank (0xFF), a longer one

@@ -39,8 +39,7 @@ static void set_temperature(host_bus_t *bus, host_bus_servo_t *hs) {
 }
 
 static void power_up(host_bus_t *bus, host_bus_servo_t *hs) {
-  const bool valid = dxl_image_is_valid(hs->eeprom_image);
-  dxl_servo_power_up(&hs->servo, valid ? &hs->eeprom_image[DXL_IMAGE_OFS_TABLE] : NULL, HOST_BUS_PRESENT_POSITION);
+  dxl_servo_power_up(&hs->servo, dxl_image_settings(hs->eeprom_image), HOST_BUS_PRESENT_POSITION);
   set_temperature(bus, hs);
   dxl_finder_init(&hs->finder);
   hs->uart_baud = hs->servo.table[CT_ADDR_BAUD_RATE];
@@ -62,7 +61,8 @@ void host_bus_init(host_bus_t *bus, const uint8_t *ids, size_t count, uint8_t ba
   conformance_on_bus_init(bus);
 }
 
-/* The board side of the after-reply policy (dxl_after_port.h): the port is the servo. */
+/* The board side of the after-reply policy (dxl_after_port.h): the port is the servo. A
+ * store is complete at once here (the firmware's takes milliseconds: docs/firmware.md). */
 void dxl_after_port_persist(void *port, const uint8_t *table) {
   host_bus_servo_t *hs = port;
   dxl_image_build(hs->eeprom_image, table);
@@ -107,7 +107,7 @@ static void receive(host_bus_t *bus, size_t index, uint8_t byte, pending_reply_t
       hs->bad_checksums++;
       dxl_servo_reject_checksum(&hs->servo, &packet, &response);
     }
-    (void)dxl_after_before_reply(&hs->servo, response.after, hs);
+    dxl_after_commit(&hs->servo, response.after, hs); /* dxl_servo_handle committed */
     if (bus->observer != NULL) {
       const host_bus_event_t event = {index, found, first_rx_index, framed, length, &response};
       bus->observer(bus->observer_context, bus, &event);

@@ -14,9 +14,10 @@
  *   one after the other, and `collision` is set. A reply reaches the master and every other
  *   servo (which frame and ignore it); a servo does not hear its own echo.
  * - What follows a packet is the firmware's own policy (firmware/link/dxl_after.h): a write of
- *   the EEPROM area rebuilds the servo's EEPROM image before its reply; after the reply has
- *   left (or at once when the servo stays silent) RESET's factory defaults are stored and a
- *   new Baud Rate applies to the servo's UART.
+ *   the EEPROM area rebuilds the servo's EEPROM image when it is committed (at once here: the
+ *   firmware's store takes milliseconds in the background); after the reply has left (or at
+ *   once when the servo stays silent) RESET's factory defaults are stored and a new Baud Rate
+ *   applies to the servo's UART.
  * - Present Position at power-up is HOST_BUS_PRESENT_POSITION (512, mid travel): there is no
  *   plant here. The control layer is not in the core either, so the harness writes Present
  *   Temperature (the `temperature` directive) after every power-up and factory reset, and

@@ -91,9 +91,9 @@ static void test_the_ready_ping_reply_is_the_prepared_one_in_every_condition(voi
 
 /* The stream contract (dxl_servo.h "Streamed replies"): a packet the RX interrupt may start
  * answering (its ID, an instruction in dxl_servo_stream_mask(), a WRITE's start address past
- * the EEPROM area) gets a prepared reply that is non-empty, has nothing to do after it and
- * starts FF FF ID. Every level, Lock off and on, REG_WRITE slot empty and full, every
- * parameter count with start addresses 0 and 24, and every start address at short counts. */
+ * the ID and the Baud Rate) gets a prepared reply that is non-empty, has nothing to do after it
+ * but a store and starts FF FF ID. Every level, Lock off and on, REG_WRITE slot empty and full, every
+ * parameter count with start addresses 0 and DXL_STREAM_WRITE_MIN_ADDR, and every start address at short counts. */
 static void expect_streamable(const dxl_servo_t *servo, uint8_t instruction, uint8_t count, const uint8_t *params) {
   static dxl_response_t response;
   const dxl_packet_t packet = {OWN_ID, instruction, count, params, 0};
@@ -101,7 +101,7 @@ static void expect_streamable(const dxl_servo_t *servo, uint8_t instruction, uin
     return; /* not streamed */
   }
   dxl_servo_prepare(servo, &packet, &response);
-  if (response.length < DXL_PING_REPLY_BYTES || response.after != 0 || response.bytes[0] != DXL_HEADER_BYTE ||
+  if (response.length < DXL_PING_REPLY_BYTES || (response.after & (DXL_AFTER_FACTORY_RESET | DXL_AFTER_APPLY_BAUD)) != 0 || response.bytes[0] != DXL_HEADER_BYTE ||
       response.bytes[1] != DXL_HEADER_BYTE || response.bytes[2] != OWN_ID) {
     fail_msg("instruction 0x%02X, %u params from address %u: length %u, after 0x%02X", instruction, count, params[0],
              response.length, response.after);
@@ -154,18 +154,22 @@ static void test_a_streamed_packet_is_answered_at_once_with_the_header_it_stream
   assert_int_equal(streamed_instructions, 4u * (1u + 2u + 5u));
 }
 
-/* An ACTION whose registered write changes the EEPROM area is answered once the values are
- * stored (docs/policy.md "Replies"), so its reply cannot start before the main loop has seen
- * it: not streamed. The same ACTION with a RAM write registered is. */
-static void test_an_action_that_writes_the_eeprom_area_is_not_streamed(void **state) {
+/* An ACTION whose registered write changes the Baud Rate applies it after its reply
+ * (docs/policy.md "Replies"), which the main loop does: not streamed. The same ACTION with
+ * an EEPROM write elsewhere (stored in the background) or a RAM write registered is. */
+static void test_an_action_that_writes_the_baud_rate_is_not_streamed(void **state) {
   (void)state;
   dxl_servo_t servo;
   given_servo(&servo, 2);
   servo.table[CT_ADDR_REGISTERED_INSTRUCTION] = 1;
+  servo.reg_start = CT_ADDR_BAUD_RATE;
+  servo.reg_len = 2;
+  servo.reg_data[0] = 1;
+  servo.reg_data[1] = 0;
+  assert_int_equal(dxl_servo_stream_mask(&servo) & (1u << DXL_INST_ACTION), 0);
   servo.reg_start = CT_ADDR_RETURN_DELAY_TIME;
   servo.reg_len = 1;
-  servo.reg_data[0] = 0;
-  assert_int_equal(dxl_servo_stream_mask(&servo) & (1u << DXL_INST_ACTION), 0);
+  assert_int_not_equal(dxl_servo_stream_mask(&servo) & (1u << DXL_INST_ACTION), 0);
   servo.reg_start = CT_ADDR_LED;
   assert_int_not_equal(dxl_servo_stream_mask(&servo) & (1u << DXL_INST_ACTION), 0);
 }
@@ -175,7 +179,7 @@ int main(void) {
       cmocka_unit_test(test_the_early_answer_decision_agrees_with_prepare_for_every_packet),
       cmocka_unit_test(test_the_ready_ping_reply_is_the_prepared_one_in_every_condition),
       cmocka_unit_test(test_a_streamed_packet_is_answered_at_once_with_the_header_it_streams),
-      cmocka_unit_test(test_an_action_that_writes_the_eeprom_area_is_not_streamed),
+      cmocka_unit_test(test_an_action_that_writes_the_baud_rate_is_not_streamed),
   };
   return cmocka_run_group_tests_name("fast reply path (" AX12_PROFILE_NAME ")", tests, NULL, NULL);
 }

@@ -125,9 +125,56 @@ static void test_power_up_takes_model_version_and_calibration_from_the_firmware(
   assert_int_equal(ct_get_u16(servo.table, CT_ADDR_DOWN_CALIBRATION), DXL_DOWN_CALIBRATION);
   assert_int_equal(ct_get_u16(servo.table, CT_ADDR_UP_CALIBRATION), DXL_UP_CALIBRATION);
   assert_int_equal(servo.table[CT_ADDR_RESERVED_10], 0);
-  /* the writable items come from the image */
+  /* the writable items in range come from the image, the others take their defaults */
   assert_int_equal(servo.table[CT_ADDR_ID], 0x55);
-  assert_int_equal(servo.table[CT_ADDR_RESERVED_19], 0x55);
+  assert_int_equal(servo.table[CT_ADDR_ALARM_LED], 0x55);
+  assert_int_equal(servo.table[CT_ADDR_RESERVED_19], 0);
+}
+
+/* docs/policy.md "Power-up": a stored item outside the range a WRITE accepts boots at its
+ * factory default, the rest as stored (an image that passed its check can still have been
+ * crafted or written by another firmware). */
+static void test_power_up_repairs_stored_items_out_of_range_and_keeps_the_rest(void **state) {
+  (void)state;
+  dxl_servo_t factory;
+  dxl_servo_power_up(&factory, NULL, 512);
+  uint8_t eeprom[CT_EEPROM_SIZE];
+  memcpy(eeprom, factory.table, sizeof eeprom);
+  eeprom[CT_ADDR_ID] = 254;
+  eeprom[CT_ADDR_BAUD_RATE] = 255;
+  eeprom[CT_ADDR_RETURN_DELAY_TIME] = 255;
+  ct_set_u16(eeprom, CT_ADDR_CW_ANGLE_LIMIT, 54784);
+  ct_set_u16(eeprom, CT_ADDR_CCW_ANGLE_LIMIT, 700);
+  eeprom[CT_ADDR_HIGHEST_LIMIT_TEMP] = 151;
+  eeprom[CT_ADDR_LOWEST_LIMIT_VOLTAGE] = 49;
+  eeprom[CT_ADDR_HIGHEST_LIMIT_VOLTAGE] = 120;
+  ct_set_u16(eeprom, CT_ADDR_MAX_TORQUE, 1024);
+  eeprom[CT_ADDR_STATUS_RETURN_LEVEL] = 9;
+  eeprom[CT_ADDR_ALARM_LED] = 128;
+  eeprom[CT_ADDR_ALARM_SHUTDOWN] = 3;
+  dxl_servo_t servo;
+  dxl_servo_power_up(&servo, eeprom, 512);
+  const uint8_t *t = servo.table;
+  assert_int_equal(t[CT_ADDR_ID], factory.table[CT_ADDR_ID]);
+  assert_int_equal(t[CT_ADDR_BAUD_RATE], factory.table[CT_ADDR_BAUD_RATE]);
+  assert_int_equal(t[CT_ADDR_RETURN_DELAY_TIME], factory.table[CT_ADDR_RETURN_DELAY_TIME]);
+  assert_int_equal(ct_get_u16(t, CT_ADDR_CW_ANGLE_LIMIT), ct_get_u16(factory.table, CT_ADDR_CW_ANGLE_LIMIT));
+  assert_int_equal(ct_get_u16(t, CT_ADDR_CCW_ANGLE_LIMIT), 700);
+  assert_int_equal(t[CT_ADDR_HIGHEST_LIMIT_TEMP], factory.table[CT_ADDR_HIGHEST_LIMIT_TEMP]);
+  assert_int_equal(t[CT_ADDR_LOWEST_LIMIT_VOLTAGE], factory.table[CT_ADDR_LOWEST_LIMIT_VOLTAGE]);
+  assert_int_equal(t[CT_ADDR_HIGHEST_LIMIT_VOLTAGE], 120);
+  assert_int_equal(ct_get_u16(t, CT_ADDR_MAX_TORQUE), ct_get_u16(factory.table, CT_ADDR_MAX_TORQUE));
+  assert_int_equal(ct_get_u16(t, CT_ADDR_TORQUE_LIMIT), ct_get_u16(factory.table, CT_ADDR_MAX_TORQUE));
+  assert_int_equal(t[CT_ADDR_STATUS_RETURN_LEVEL], factory.table[CT_ADDR_STATUS_RETURN_LEVEL]);
+  assert_int_equal(t[CT_ADDR_ALARM_LED], factory.table[CT_ADDR_ALARM_LED]);
+  assert_int_equal(t[CT_ADDR_ALARM_SHUTDOWN], 3);
+  /* Every writable item of the EEPROM area now passes the range check a WRITE makes. */
+  for (uint8_t i = 0; i < CT_ITEM_COUNT; i++) {
+    const ct_desc_t d = ct_items[i];
+    if (d.addr < CT_EEPROM_SIZE && d.access == CT_RW) {
+      assert_int_equal(ct_check_write(t, d.addr, &t[d.addr], d.size_bytes), 0);
+    }
+  }
 }
 
 static void test_check_write_refuses_an_empty_window(void **state) {
@@ -149,6 +196,7 @@ int main(void) {
       cmocka_unit_test(test_wheel_mode_is_both_angle_limits_zero),
       cmocka_unit_test(test_power_up_takes_torque_limit_from_max_torque_and_goal_from_present_position),
       cmocka_unit_test(test_power_up_takes_model_version_and_calibration_from_the_firmware),
+      cmocka_unit_test(test_power_up_repairs_stored_items_out_of_range_and_keeps_the_rest),
       cmocka_unit_test(test_check_write_refuses_an_empty_window),
   };
   return cmocka_run_group_tests_name("control table (" AX12_PROFILE_NAME ")", tests, NULL, NULL);

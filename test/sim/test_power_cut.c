@@ -1,0 +1,208 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+/* Power cuts during EEPROM writes, on the firmware ELF in simavr: a servo gets a multi-byte
+ * WRITE of its EEPROM area (and a RESET), the EEPROM is captured at every byte the firmware
+ * writes (a cut between two bytes) and with that byte torn (a cut in the byte: it reads back
+ * as garbage), and a new servo boots from each capture. Each must answer with exactly the
+ * settings before the packet or after it (docs/policy.md "Settings"): at the old ID and baud
+ * or at the new ones, never a mix, never factory defaults. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "dxl_protocol.h"
+#include "dxl_table.h"
+#include "eeprom_store.h"
+#include "sim_harness.h"
+
+#define MCU "atmega328p"
+#define STATUS_LEN(params) (6u + (params))
+#define MAX_CAPTURES 64u
+#define EEPROM_BYTES 512u
+/* Values a torn byte is left at (besides the old and new values of a cut between bytes). */
+static const uint8_t torn_values[] = {0x00, 0xFF};
+
+typedef struct {
+  uint8_t bytes[MAX_CAPTURES][EEPROM_BYTES];
+  size_t written_addr[MAX_CAPTURES]; /* the byte the write of capture k stored (k >= 1) */
+  size_t count;                      /* captures[0] is before the packet */
+} captures_t;
+
+/* The EEPROM area as a servo at (id, baud) answers it; false when it does not answer. */
+static bool read_settings(harness_t *h, uint8_t id, uint8_t area[CT_EEPROM_SIZE]) {
+  uint8_t reply[64];
+  const size_t n = harness_request(h, id, DXL_INST_READ, HP(0, CT_EEPROM_SIZE), STATUS_LEN(CT_EEPROM_SIZE), reply);
+  if (n != STATUS_LEN(CT_EEPROM_SIZE)) {
+    return false;
+  }
+  memcpy(area, &reply[5], CT_EEPROM_SIZE);
+  return true;
+}
+
+/* A servo at ID 1, 1 Mbps, with a state file in dir: boots, gets the setup packets, then the
+ * packet under test, while every byte the firmware writes to its EEPROM is captured. */
+static void capture_write(const char *dir, const uint8_t *setup, size_t setup_len, const uint8_t *packet,
+                          size_t packet_len, captures_t *c, uint8_t before[CT_EEPROM_SIZE],
+                          uint8_t after[CT_EEPROM_SIZE], uint8_t after_id, uint8_t after_baud) {
+  harness_t h;
+  harness_open(&h, "ax12", MCU, 1);
+  servo_t *servo = harness_add_servo(&h, 1, 1, dir);
+  harness_boot(&h, 5);
+  uint8_t reply[64];
+  if (setup_len) {
+    (void)harness_exchange(&h, setup, setup_len, STATUS_LEN(0), reply, sizeof reply);
+    world_run_until(h.world, h.world->now + sim_ms(150)); /* stored: both slots hold settings */
+  }
+  assert_true(read_settings(&h, 1, before));
+  memcpy(c->bytes[0], servo->eeprom, EEPROM_BYTES);
+  c->count = 1;
+  uint64_t writes = servo->eeprom_writes;
+  const size_t heard = harness_exchange(&h, packet, packet_len, STATUS_LEN(0), reply, sizeof reply);
+  assert_int_equal(heard, STATUS_LEN(0)); /* answered at once, not after the store */
+  const sim_cycles_t end = h.world->now + sim_ms(200);
+  while (h.world->now < end) {
+    world_run_until(h.world, h.world->now + sim_us(20));
+    if (servo->eeprom_writes != writes) {
+      assert_int_equal(servo->eeprom_writes, writes + 1u); /* 3.4 ms apart: one at a time */
+      writes = servo->eeprom_writes;
+      assert_true(c->count < MAX_CAPTURES);
+      memcpy(c->bytes[c->count], servo->eeprom, EEPROM_BYTES);
+      size_t addr = 0;
+      while (addr < EEPROM_BYTES && c->bytes[c->count][addr] == c->bytes[c->count - 1u][addr]) {
+        addr++;
+      }
+      assert_true(addr < EEPROM_BYTES);
+      c->written_addr[c->count] = addr;
+      c->count++;
+    }
+  }
+  assert_true(c->count > 3u); /* at least a data byte, the check and the sequence number */
+  master_set_baud_reg(h.master, after_baud);
+  assert_true(read_settings(&h, after_id, after));
+  harness_close(&h);
+}
+
+/* Boots a servo from eeprom and returns which settings it answers with: 0 the old, 1 the new. */
+static int boot_from(const uint8_t *eeprom, const uint8_t before[CT_EEPROM_SIZE], const uint8_t after[CT_EEPROM_SIZE],
+                     const char *what) {
+  char dir[256];
+  harness_tempdir(dir, sizeof dir);
+  char path[512];
+  char err[256];
+  eeprom_store_path(path, sizeof path, dir, 1);
+  assert_int_equal(eeprom_store_save(path, eeprom, EEPROM_BYTES, err, sizeof err), 0);
+  int result = -1;
+  for (int which = 0; which < 2 && result < 0; which++) {
+    /* Asked at the old ID and baud, then at the new ones. */
+    const uint8_t *ask = which == 0 ? before : after;
+    harness_t h;
+    harness_open(&h, "ax12", MCU, ask[CT_ADDR_BAUD_RATE]);
+    harness_add_servo(&h, 1, 1, dir);
+    harness_boot(&h, 5);
+    uint8_t area[CT_EEPROM_SIZE];
+    if (read_settings(&h, ask[CT_ADDR_ID], area)) {
+      if (memcmp(area, before, CT_EEPROM_SIZE) == 0) {
+        result = 0;
+      } else if (memcmp(area, after, CT_EEPROM_SIZE) == 0) {
+        result = 1;
+      } else {
+        char got_hex[128];
+        char old_hex[128];
+        char new_hex[128];
+        fail_msg("%s: boots %s, neither the old %s nor the new %s", what,
+                 packet_hex(area, CT_EEPROM_SIZE, got_hex, sizeof got_hex),
+                 packet_hex(before, CT_EEPROM_SIZE, old_hex, sizeof old_hex),
+                 packet_hex(after, CT_EEPROM_SIZE, new_hex, sizeof new_hex));
+      }
+    }
+    harness_close(&h);
+  }
+  harness_rmdir(dir);
+  if (result < 0) {
+    fail_msg("%s: answers with neither the old nor the new settings", what);
+  }
+  return result;
+}
+
+/* Every cut of the packet's store: returns how many were tried. */
+static unsigned cut_everywhere(const uint8_t *setup, size_t setup_len, const uint8_t *packet, size_t packet_len,
+                               uint8_t after_id, uint8_t after_baud) {
+  static captures_t c;
+  char dir[256];
+  harness_tempdir(dir, sizeof dir);
+  uint8_t before[CT_EEPROM_SIZE];
+  uint8_t after[CT_EEPROM_SIZE];
+  capture_write(dir, setup, setup_len, packet, packet_len, &c, before, after, after_id, after_baud);
+  harness_rmdir(dir);
+  unsigned cuts = 0;
+  int last = 0;
+  for (size_t k = 0; k < c.count; k++) {
+    char what[96];
+    snprintf(what, sizeof what, "cut after byte %zu of %zu", k, c.count - 1u);
+    const int booted = boot_from(c.bytes[k], before, after, what);
+    assert_true(booted >= last); /* once new, new for good */
+    last = booted;
+    cuts++;
+    if (k == 0) {
+      continue;
+    }
+    for (size_t t = 0; t < sizeof torn_values; t++) {
+      uint8_t torn[EEPROM_BYTES];
+      memcpy(torn, c.bytes[k], EEPROM_BYTES);
+      torn[c.written_addr[k]] = torn_values[t];
+      snprintf(what, sizeof what, "cut in byte %zu of %zu (EEPROM %zu left at 0x%02X)", k, c.count - 1u,
+               c.written_addr[k], torn_values[t]);
+      (void)boot_from(torn, before, after, what);
+      cuts++;
+    }
+  }
+  assert_int_equal(last, 1); /* the complete store boots the new settings */
+  return cuts;
+}
+
+/* A robot's joint renamed and moved to another speed: ID, baud and Return Delay Time in one
+ * WRITE, over settings written once before (so both slots hold settings). */
+static void test_a_cut_anywhere_in_a_write_of_id_baud_and_delay_boots_old_or_new(void **state) {
+  (void)state;
+  uint8_t setup[16];
+  uint8_t packet[16];
+  const size_t setup_len = packet_encode(setup, 1, DXL_INST_WRITE, HP(CT_ADDR_RETURN_DELAY_TIME, 10));
+  const size_t packet_len = packet_encode(packet, 1, DXL_INST_WRITE, HP(CT_ADDR_ID, 8, 16, 100));
+  const unsigned cuts = cut_everywhere(setup, setup_len, packet, packet_len, 8, 16);
+  print_message("%u cuts, 0 failures\n", cuts);
+}
+
+/* Eight bytes across the limits and alarms (addresses 11..18), a 16-bit item among them. */
+static void test_a_cut_anywhere_in_an_eight_byte_write_boots_old_or_new(void **state) {
+  (void)state;
+  uint8_t packet[32];
+  const size_t packet_len =
+      packet_encode(packet, 1, DXL_INST_WRITE, HP(CT_ADDR_HIGHEST_LIMIT_TEMP, 80, 55, 150, 0x00, 0x02, 1, 0x25, 0x25));
+  const unsigned cuts = cut_everywhere(NULL, 0, packet, packet_len, 1, 1);
+  print_message("%u cuts, 0 failures\n", cuts);
+}
+
+/* RESET stores the factory defaults after its reply: a cut meanwhile boots the settings
+ * before it (here changed alarms and Return Delay Time) or the defaults, never half of each. */
+static void test_a_cut_anywhere_in_a_reset_boots_the_settings_before_it_or_the_defaults(void **state) {
+  (void)state;
+  uint8_t setup[16];
+  uint8_t packet[16];
+  const size_t setup_len = packet_encode(setup, 1, DXL_INST_WRITE, HP(CT_ADDR_RETURN_DELAY_TIME, 20, 0x00, 0x01));
+  const size_t packet_len = packet_encode(packet, 1, DXL_INST_RESET, H_NO_PARAMS);
+  const unsigned cuts = cut_everywhere(setup, setup_len, packet, packet_len, 1, 1);
+  print_message("%u cuts, 0 failures\n", cuts);
+}
+
+int main(void) {
+  const struct CMUnitTest tests[] = {
+      cmocka_unit_test(test_a_cut_anywhere_in_a_write_of_id_baud_and_delay_boots_old_or_new),
+      cmocka_unit_test(test_a_cut_anywhere_in_an_eight_byte_write_boots_old_or_new),
+      cmocka_unit_test(test_a_cut_anywhere_in_a_reset_boots_the_settings_before_it_or_the_defaults),
+  };
+  return cmocka_run_group_tests(tests, NULL, NULL);
+}
