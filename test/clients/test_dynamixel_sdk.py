@@ -472,6 +472,45 @@ def test_factory_reset_after_every_eeprom_item_changed_is_answered_in_time(emula
     assert bus.read(1, T.CCW_ANGLE_LIMIT) == 1023
 
 
+def test_an_eeprom_write_is_answered_at_once_and_the_bus_goes_on_while_it_is_stored(emulators,
+                                                                                      bus_factory):
+    """docs/policy.md "Settings": an 8-byte WRITE of the EEPROM area (addresses 11..18) is
+    answered at its Return Delay Time, not after the 8 x 3.4 ms its bytes take to store; the
+    new values read back at once; READs of other servos and a broadcast SYNC_WRITE sent while
+    it is being stored are answered and applied; the values survive a restart."""
+    emu = emulators(ids="1-3")
+    bus = bus_factory(emu.path)
+    settings = [80, 55, 150, 0x00, 0x02, 1, 0x25, 0x25]   # addresses 11..18, all changed
+    t0 = time.perf_counter()
+    result, error = bus.ph.writeTxRx(bus.port, 1, T.HIGHEST_LIMIT_TEMP, len(settings), settings)
+    elapsed_ms = (time.perf_counter() - t0) * 1e3
+    assert (result, error) == (COMM_SUCCESS, 0), bus.ph.getTxRxResult(result)
+    # Storing first would take (8 changed bytes + 3) x 3.4 ms = 37 ms; the request and reply
+    # take 0.2 ms on the wire and 0.5 ms of Return Delay Time (250).
+    assert elapsed_ms < 15, f"answered after {elapsed_ms:.1f} ms"
+    data, result, error = bus.ph.readTxRx(bus.port, 1, T.HIGHEST_LIMIT_TEMP, len(settings))
+    assert (result, error) == (COMM_SUCCESS, 0)
+    assert list(data) == settings
+    # Meanwhile (the store is still under way): other servos answer, a SYNC_WRITE applies.
+    for i in (2, 3):
+        assert bus.read(i, T.ID) == i
+    sw = GroupSyncWrite(bus.port, bus.ph, T.LED, 1)
+    for i in (1, 2, 3):
+        assert sw.addParam(i, [1])
+    assert sw.txPacket() == COMM_SUCCESS
+    settle(bus.port)
+    for i in (1, 2, 3):
+        assert bus.read(i, T.LED) == 1, f"id {i}"
+    assert bus.read(1, T.STATUS_RETURN_LEVEL) == 1
+    # Stored: they survive a restart.
+    bus.close()
+    emu.restart()
+    bus = bus_factory(emu.path)
+    data, result, error = bus.ph.readTxRx(bus.port, 1, T.HIGHEST_LIMIT_TEMP, len(settings))
+    assert (result, error) == (COMM_SUCCESS, 0)
+    assert list(data) == settings
+
+
 # ---------------------------------------------------------------------------------------------
 # ID and baud changes
 # ---------------------------------------------------------------------------------------------

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "bus_noise.h"
+#include "elf_check.h"
 #include "state_dir.h"
 
 #ifndef AX12_DEFAULT_FIRMWARE_DIR
@@ -217,6 +218,10 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
   }
   if (access(o->elf, R_OK) != 0) {
     fprintf(stderr, "ax12-emu: firmware ELF %s: %s (build the firmware, or pass --elf)\n", o->elf, strerror(errno));
+    return 1;
+  }
+  if (!elf_check_avr(o->elf, o->mcu, err, sizeof(err))) {
+    fprintf(stderr, "ax12-emu: %s\n", err);
     return 1;
   }
   return -1;

@@ -2,6 +2,7 @@
 #define _GNU_SOURCE
 #include "emu_serve.h"
 
+#include <errno.h>
 #include <limits.h>
 #include <signal.h>
 #include <stdio.h>
@@ -12,6 +13,7 @@
 #include "servo.h"
 #include "servo_eeprom.h"
 #include "servo_plant.h"
+#include "state_lock.h"
 #include "world.h"
 
 #define SLICE_US 100u
@@ -57,6 +59,39 @@ static void print_stats(const world_t *world, const pty_bridge_t *pty, const pac
 
 static sim_cycles_t sim_of_wall(void *ctx, double wall_us) { return pacing_sim_at(ctx, wall_us); }
 
+static void release_locks(const int *locks, size_t count) {
+  for (size_t i = 0; i < count; i++) {
+    state_lock_release(locks[i]);
+  }
+}
+
+/* A state file that holds no valid settings image, or is not an EEPROM of this MCU's size, is
+ * kept aside under another name (never overwritten) with a one-line warning; the servo runs on
+ * its bytes, so it boots as its firmware decides (factory defaults when no slot is valid),
+ * and its state file starts again from them. False (err set) only when that fails. */
+static bool check_state_file(servo_t *servo, const char *path, unsigned id, char *err, size_t err_len) {
+  char why[160];
+  if (eeprom_store_file_fits(path, servo->eeprom_size, why, sizeof why)) {
+    if (eeprom_store_image_fields(servo->eeprom, servo->eeprom_size, NULL, NULL)) {
+      return true;
+    }
+    snprintf(why, sizeof why, "no valid settings image");
+  }
+  char aside[PATH_MAX + 64];
+  if (eeprom_store_set_aside(path, aside, sizeof aside) != 0) {
+    const int why_not = errno;
+    const int n = snprintf(err, err_len, "%s: %s, and it cannot be kept aside: ", path, why);
+    if (n >= 0 && (size_t)n < err_len) {
+      snprintf(err + n, err_len - (size_t)n, "%s", strerror(why_not));
+    }
+    return false;
+  }
+  const bool has_settings = eeprom_store_image_fields(servo->eeprom, servo->eeprom_size, NULL, NULL);
+  fprintf(stderr, "ax12-emu: warning: servo %u: %s: %s; kept as %s; the servo boots %s\n", id, path, why, aside,
+          has_settings ? "with the settings in it" : "as its firmware decides (factory defaults, ID 1)");
+  return eeprom_store_save(path, servo->eeprom, servo->eeprom_size, err, err_len) == 0;
+}
+
 int emu_serve(const serve_options_t *o) {
   char err[512];
   world_t *world = world_create(o->elf, o->mcu, o->profile, err, sizeof(err));
@@ -65,11 +100,19 @@ int emu_serve(const serve_options_t *o) {
     return 1;
   }
   (void)bus_set_noise(&world->bus, o->bit_error_rate, o->noise_seed); /* validated by the parser */
+  int locks[ID_LIST_MAX_ID + 1u];
+  size_t lock_count = 0;
   for (size_t i = 0; i < o->id_count; i++) {
     char path[PATH_MAX + 32];
     eeprom_store_path(path, sizeof(path), o->state_dir, o->ids[i]);
-    if (!world_add_servo(world, o->ids[i], (uint8_t)o->baud, path, err, sizeof(err))) {
+    const int lock = state_lock_take(path, err, sizeof(err));
+    servo_t *servo = lock < 0 ? NULL : world_add_servo(world, o->ids[i], (uint8_t)o->baud, path, err, sizeof(err));
+    if (lock >= 0) {
+      locks[lock_count++] = lock;
+    }
+    if (!servo || !check_state_file(servo, path, o->ids[i], err, sizeof(err))) {
       fprintf(stderr, "ax12-emu: servo %u: %s\n", o->ids[i], err);
+      release_locks(locks, lock_count);
       world_destroy(world);
       return 1;
     }
@@ -85,6 +128,7 @@ int emu_serve(const serve_options_t *o) {
   pty_bridge_t pty;
   if (pty_bridge_open(&pty, &world->bus, &world->now, sim_baud_reg_to_bps(first_baud), o->link, err, sizeof(err)) != 0) {
     fprintf(stderr, "ax12-emu: %s\n", err);
+    release_locks(locks, lock_count);
     world_destroy(world);
     return 1;
   }
@@ -173,6 +217,7 @@ int emu_serve(const serve_options_t *o) {
   }
   pty_bridge_close(&pty);
   world_destroy(world);
+  release_locks(locks, lock_count); /* after the last state file was written */
   return failures ? 1 : 0;
 }
 
