@@ -45,6 +45,9 @@ const char *harness_elf_path(const char *profile, const char *mcu);
  * Skips the test (cmocka skip) when the ELF is missing and the firmware is not part of the
  * build, fails it when it should be there. */
 void harness_open(harness_t *h, const char *profile, const char *mcu, unsigned master_baud);
+/* Stops cleanly: runs the servos until their EEPROM is quiet (at most HARNESS_SETTLE_MS of
+ * simulated time, as the emulator does on SIGTERM) and writes their state files. */
+#define HARNESS_SETTLE_MS 500u
 void harness_close(harness_t *h);
 
 /* Adds a servo for slot id (state file in state_dir when not NULL) and returns it. */
@@ -53,7 +56,8 @@ servo_t *harness_add_servo(harness_t *h, uint8_t id, uint8_t baud_reg, const cha
 /* Runs until every servo listens, plus settle_ms (power-up work). Fails after 1 s. */
 void harness_boot(harness_t *h, unsigned settle_ms);
 
-/* Every servo's MCU restarts (EEPROM kept, RAM not), then boots. */
+/* Every servo's MCU restarts (EEPROM kept, RAM not), then boots; the EEPROM writes under way
+ * finish first (at most HARNESS_SETTLE_MS). */
 void harness_power_cycle(harness_t *h);
 
 /* Sends bytes and collects what comes back: until expect bytes came and the line was quiet

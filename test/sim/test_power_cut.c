@@ -19,7 +19,7 @@
 #include "eeprom_store.h"
 #include "sim_harness.h"
 
-#define MCU "atmega328p"
+#define MCU "atmega88"
 #define STATUS_LEN(params) (6u + (params))
 #define MAX_CAPTURES 64u
 #define EEPROM_BYTES 512u

@@ -313,8 +313,11 @@ static void test_a_corrupt_image_boots_to_factory_defaults_and_is_repaired(void 
   eeprom_store_path(path, sizeof(path), dir, 1);
   uint8_t eeprom[512];
   eeprom_store_seed(eeprom, sizeof(eeprom), EEPROM_PROFILE_AX12, 7, 1);
-  eeprom[DXL_IMAGE_OFS_TABLE + 5] = 20;    /* RDT 20 ... */
-  eeprom[DXL_IMAGE_OFS_CRC] ^= 0x5A;       /* ... under a broken CRC */
+  for (unsigned slot = 0; slot < DXL_IMAGE_SLOTS; slot++) {
+    uint8_t *const bytes = &eeprom[dxl_image_slot_offset((uint8_t)slot)];
+    bytes[DXL_IMAGE_OFS_TABLE + 5] = 20; /* RDT 20 ... */
+    bytes[DXL_IMAGE_OFS_CRC] ^= 0x5A;    /* ... under a broken CRC, in both slots */
+  }
   char err[256];
   assert_int_equal(eeprom_store_save(path, eeprom, sizeof(eeprom), err, sizeof(err)), 0);
 

@@ -123,8 +123,10 @@ def test_every_listed_id_is_its_own_servo(emulator, tmp_path):
         for ident in (1, 2, 3, 7, 10):
             assert transact(port, packet(ident, T.INST_PING), 6) == PING_REPLY[ident]
         assert transact(port, packet(4, T.INST_PING), 6, timeout=0.1) == b""
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+    assert sorted(p.name for p in tmp_path.glob("*.eeprom")) == sorted(
         f"servo-{i}.eeprom" for i in (1, 2, 3, 7, 10))
+    assert sorted(p.name for p in tmp_path.glob("*.lock")) == sorted(
+        f"servo-{i}.eeprom.lock" for i in (1, 2, 3, 7, 10))
 
 
 def test_fresh_servos_start_at_the_baud_asked_for(emulator, tmp_path):
