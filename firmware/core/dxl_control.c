@@ -111,6 +111,42 @@ static void advance_setpoint(dxl_control_t *c, uint16_t goal_counts, uint16_t mo
   }
 }
 
+/* Whether position lies farther from goal than the compliance margin on goal's side plus
+ * the arrival tolerance: the servo still has its own way to go. The helpers shared by the
+ * tick and dxl_control_after_write are kept out of line: one copy each (flash). */
+static DXL_ONE_COPY bool away_from_goal(const uint8_t *table, uint16_t goal, uint16_t position) {
+  const int16_t goal_error = (int16_t)(goal - position);
+  const uint16_t magnitude = (uint16_t)(goal_error < 0 ? -goal_error : goal_error);
+  const uint8_t margin = goal_error > 0 ? table[CT_ADDR_CW_COMPLIANCE_MARGIN] : table[CT_ADDR_CCW_COMPLIANCE_MARGIN];
+  return magnitude > (uint16_t)(margin + DXL_ARRIVAL_TOLERANCE_COUNTS);
+}
+
+static DXL_ONE_COPY uint16_t joint_goal(const uint8_t *table) {
+  return clamp_u16(ct_get_u16(table, CT_ADDR_GOAL_POSITION), ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT),
+                   ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT));
+}
+
+/* The wheel-mode drive magnitude: Moving Speed's, capped at Torque Limit. */
+static DXL_ONE_COPY uint16_t wheel_drive(const uint8_t *table) {
+  const uint16_t wanted = ct_get_u16(table, CT_ADDR_MOVING_SPEED) & MAGNITUDE_MASK;
+  const uint16_t torque_limit = ct_get_u16(table, CT_ADDR_TORQUE_LIMIT);
+  return wanted < torque_limit ? wanted : torque_limit;
+}
+
+void dxl_control_after_write(uint8_t *table) {
+  if (table[CT_ADDR_TORQUE_ENABLE] == 0) {
+    table[CT_ADDR_MOVING] = 0;
+    ct_set_u16(table, CT_ADDR_PRESENT_LOAD, 0);
+    return;
+  }
+  const bool starts = ct_is_wheel_mode(table)
+                          ? wheel_drive(table) != 0
+                          : away_from_goal(table, joint_goal(table), ct_get_u16(table, CT_ADDR_PRESENT_POSITION));
+  if (starts) {
+    table[CT_ADDR_MOVING] = 1;
+  }
+}
+
 static uint8_t measured_conditions(const uint8_t *table, const dxl_sensors_t *in, bool overloaded) {
   uint8_t held = 0;
   if (in->voltage_dv < table[CT_ADDR_LOWEST_LIMIT_VOLTAGE] || in->voltage_dv > table[CT_ADDR_HIGHEST_LIMIT_VOLTAGE]) {
@@ -198,14 +234,12 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
   if (!torque_enabled) {
     c->setpoint_q16 = (int32_t)position << 16;
   } else if (ct_is_wheel_mode(table)) {
-    const uint16_t wanted = moving_speed & MAGNITUDE_MASK;
-    const uint16_t applied = wanted < torque_limit ? wanted : torque_limit;
+    const uint16_t applied = wheel_drive(table);
     drive = (moving_speed & DIRECTION_CW_BIT) ? (int16_t)-(int16_t)applied : (int16_t)applied;
     moving = drive != 0;
     c->setpoint_q16 = (int32_t)position << 16;
   } else {
-    const uint16_t goal = clamp_u16(ct_get_u16(table, CT_ADDR_GOAL_POSITION), ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT),
-                                    ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT));
+    const uint16_t goal = joint_goal(table);
     advance_setpoint(c, goal, moving_speed);
     const int16_t setpoint = (int16_t)((c->setpoint_q16 + 0x8000L) >> 16);
     const int16_t error = (int16_t)(setpoint - (int16_t)position);
@@ -215,19 +249,17 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
     const uint8_t ccw_slope = table[CT_ADDR_CCW_COMPLIANCE_SLOPE];
     drive = dxl_control_compliance_drive(error, cw_margin, ccw_margin, cw_slope, ccw_slope,
                                          ct_get_u16(table, CT_ADDR_PUNCH), torque_limit);
-    const int16_t goal_error = (int16_t)(goal - position);
-    const uint16_t goal_error_magnitude = (uint16_t)(goal_error < 0 ? -goal_error : goal_error);
-    const uint8_t goal_margin = goal_error > 0 ? cw_margin : ccw_margin;
-    moving = c->setpoint_q16 != ((int32_t)goal << 16) ||
-             goal_error_magnitude > (uint16_t)(goal_margin + DXL_ARRIVAL_TOLERANCE_COUNTS);
+    moving = c->setpoint_q16 != ((int32_t)goal << 16) || away_from_goal(table, goal, position);
   }
 
   /* The law demands at least Torque Limit: past margin + slope in joint mode (or any error
    * past the margin when Punch >= Torque Limit), a capped drive in wheel mode. */
   const uint16_t drive_magnitude = (uint16_t)(drive < 0 ? -drive : drive);
   const bool demand_exceeds_limit = torque_limit != 0 && drive_magnitude >= torque_limit;
-  const uint16_t speed_magnitude = (uint16_t)(speed_units < 0 ? -speed_units : speed_units);
-  if (demand_exceeds_limit && speed_magnitude < DXL_OVERLOAD_STALL_SPEED) {
+  /* Present Speed along the drive: below the stall speed when stalled, negative when the load
+   * drags the output backwards. */
+  const int16_t speed_along_drive = drive < 0 ? (int16_t)-speed_units : speed_units;
+  if (demand_exceeds_limit && speed_along_drive < (int16_t)DXL_OVERLOAD_STALL_SPEED) {
     if (c->overload_ms < DXL_OVERLOAD_WINDOW_MS) {
       c->overload_ms++;
     }

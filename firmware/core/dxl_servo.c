@@ -1,9 +1,14 @@
 #include "dxl_servo.h"
 
+#include "dxl_control.h"
+
 #include <stddef.h>
 #include <string.h>
 
 #include "dxl_protocol.h"
+
+/* Moving Speed in joint mode: 0..1023 (ct_items.h); in wheel mode bit 10 adds a direction. */
+#define MOVING_SPEED_JOINT_MAX 1023u
 
 /* The reply rules (docs/policy.md "Replies", "Instructions and their errors"), as two switches
  * (cheaper on the AVR than a table search on every packet):
@@ -323,7 +328,11 @@ static void apply_write(dxl_servo_t *s, uint8_t start, const uint8_t *data, uint
     s->goal_written_in_wheel_mode = goal_written || (was_wheel_mode && s->goal_written_in_wheel_mode);
   } else {
     s->goal_written_in_wheel_mode = false;
+    /* docs/policy.md "Motion semantics": back in joint mode, a wheel-mode Moving Speed keeps
+     * its speed (bits 0..9) and drops its direction (bit 10), inside the joint range 0..1023. */
+    s->table[CT_ADDR_MOVING_SPEED + 1] &= (uint8_t)(MOVING_SPEED_JOINT_MAX >> 8);
   }
+  dxl_control_after_write(s->table);
 }
 
 void dxl_servo_commit(dxl_servo_t *servo, const dxl_response_t *response) {

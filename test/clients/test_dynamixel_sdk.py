@@ -512,6 +512,59 @@ def test_an_eeprom_write_is_answered_at_once_and_the_bus_goes_on_while_it_is_sto
 
 
 # ---------------------------------------------------------------------------------------------
+# Motion as a robot waits for it: Moving, Overload
+# ---------------------------------------------------------------------------------------------
+
+def _wait_until_still(bus, dxl_id, timeout_s=3.0):
+    deadline = time.monotonic() + timeout_s
+    while bus.read(dxl_id, T.MOVING) != 0:
+        assert time.monotonic() < deadline, "still Moving"
+        time.sleep(0.02)
+
+
+def test_moving_reads_1_right_after_every_goal_write_600_counts_away(emulators, bus_factory):
+    """docs/policy.md "Motion semantics": the most common way to wait for a move, a goal
+    write followed by polling Moving until 0, never sees 0 on its first poll."""
+    bus = bus_factory(emulators(ids="1").path)
+    bus.write(1, T.TORQUE_ENABLE, 1)
+    _wait_until_still(bus, 1)
+    for move in range(10):
+        goal = 200 if bus.read(1, T.PRESENT_POSITION) > 500 else 800
+        bus.write(1, T.GOAL_POSITION, goal)
+        assert bus.read(1, T.MOVING) == 1, f"move {move}: Moving read 0 right after the goal write"
+        _wait_until_still(bus, 1)
+        assert abs(bus.read(1, T.PRESENT_POSITION) - goal) <= 3, f"move {move}"
+
+
+def test_a_load_of_twice_the_stall_torque_against_the_goal_trips_overload_and_shutdown(emulators,
+                                                                                      bus_factory):
+    """docs/policy.md "Alarms": a load of 3 N m (about twice the stall torque at 9.6 V) drags
+    the output backwards at full drive; after the 1000 ms window the Overload bit is set and
+    Alarm Shutdown (overload bit set) turns the torque off."""
+    bus = bus_factory(emulators(ids="1", extra=("--load-torque", "-3.0")).path)
+    bus.write(1, T.ALARM_SHUTDOWN, T.ERR_OVERLOAD | T.ERR_OVERHEATING)
+    bus.write(1, T.TORQUE_ENABLE, 1)
+    start = bus.read(1, T.PRESENT_POSITION)
+    bus.write(1, T.GOAL_POSITION, start + 300)
+    t0 = time.monotonic()
+    dragged = False
+    while True:
+        torque, result, error = bus.ph.read1ByteTxRx(bus.port, 1, T.TORQUE_ENABLE)
+        elapsed = time.monotonic() - t0
+        if result == COMM_SUCCESS and torque == 0:
+            break
+        assert elapsed < 4.0, "no overload shutdown within 4 s"
+        if result == COMM_SUCCESS and elapsed < 0.8:
+            assert not error & T.ERR_OVERLOAD, f"overload after {elapsed:.2f} s, before the window"
+            speed, result, _ = bus.ph.read2ByteTxRx(bus.port, 1, T.PRESENT_SPEED)
+            dragged = dragged or (result == COMM_SUCCESS and speed & 0x400 and speed & 0x3FF > 20)
+        time.sleep(0.05)
+    assert error & T.ERR_OVERLOAD, f"torque off without the Overload bit (error 0x{error:02x})"
+    assert elapsed >= 0.95, f"shut down after {elapsed:.2f} s, inside the 1000 ms window"
+    assert dragged, "the output was never seen dragged backwards (CW) past 20 units"
+
+
+# ---------------------------------------------------------------------------------------------
 # ID and baud changes
 # ---------------------------------------------------------------------------------------------
 
