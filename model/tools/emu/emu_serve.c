@@ -50,10 +50,11 @@ static void print_stats(const world_t *world, const pty_bridge_t *pty, const pac
     const uart_link_t *l = &s->board.link;
     fprintf(stderr,
             "ax12-emu: %s: rx %llu (overrun %llu, late %llu), tx %llu (undriven %llu), EEPROM writes %llu, "
-            "persisted %llu%s\n",
+            "persisted %llu, watchdog resets %llu%s\n",
             s->name, (unsigned long long)l->rx_bytes, (unsigned long long)l->rx_overruns,
             (unsigned long long)l->rx_late, (unsigned long long)l->tx_bytes, (unsigned long long)l->tx_undriven,
-            (unsigned long long)s->eeprom_writes, (unsigned long long)s->persists, s->halted ? ", HALTED" : "");
+            (unsigned long long)s->eeprom_writes, (unsigned long long)s->persists,
+            (unsigned long long)s->watchdog_resets, s->halted ? ", HALTED" : "");
   }
 }
 
