@@ -151,7 +151,7 @@ static bool link_free(void);
  * earlier packet is committed (the sniff decides with the table of the moment). */
 static __attribute__((noinline)) void sniff_start(void) {
   /* Callers: nothing armed. */
-  if (uart_sniff == UART_SNIFF_OFF && link_free() && finder.fill == finder.release) { /* usually on */
+  if (uart_sniff == UART_SNIFF_OFF && link_free() && dxl_finder_idle(&finder)) { /* usually on */
     uart_reply_load(response.bytes, DXL_PING_REPLY_BYTES, response.delay_us);
     uart_sniff_start(servo.table[CT_ADDR_ID], dxl_servo_stream_mask(&servo));
   }
