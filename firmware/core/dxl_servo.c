@@ -338,12 +338,10 @@ void dxl_servo_commit(dxl_servo_t *servo, const dxl_response_t *response) {
     s->table[CT_ADDR_REGISTERED_INSTRUCTION] = 1;
     break;
   case DXL_ACTION_RUN_REGISTERED: {
-    uint8_t data[DXL_REG_SLOT_BYTES];
-    const uint8_t start = s->reg_start;
+    /* The slot is emptied first; its bytes stay (apply_write writes the table alone). */
     const uint8_t len = s->reg_len;
-    memcpy(data, s->reg_data, len);
     clear_registered(s);
-    apply_write(s, start, data, len);
+    apply_write(s, s->reg_start, s->reg_data, len);
     break;
   }
   default: /* RESET runs after the reply: DXL_AFTER_FACTORY_RESET */
