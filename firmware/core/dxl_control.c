@@ -95,9 +95,17 @@ int16_t dxl_control_compliance_drive(int16_t error_counts, uint8_t cw_margin, ui
 /* Writes value to a Present Speed / Load item: magnitude (at most 1023) in bits 0..9, bit 10
  * set when negative (CW). One copy for both items: 12 B less flash than inlined twice (ATmega88). */
 static DXL_ONE_COPY void set_signed_item(uint8_t *item, int16_t value) {
-  const uint16_t magnitude = (uint16_t)(value < 0 ? -value : value);
-  const uint16_t capped = magnitude > MAGNITUDE_MASK ? MAGNITUDE_MASK : magnitude;
-  ct_set_u16(item, 0, (uint16_t)(capped | (value < 0 ? DIRECTION_CW_BIT : 0u)));
+  uint16_t magnitude = (uint16_t)value;
+  uint8_t direction_high = 0;
+  if (value < 0) {
+    magnitude = (uint16_t)-value;
+    direction_high = DIRECTION_CW_BIT >> 8;
+  }
+  if (magnitude > MAGNITUDE_MASK) {
+    magnitude = MAGNITUDE_MASK;
+  }
+  item[0] = (uint8_t)magnitude;
+  item[1] = (uint8_t)((magnitude >> 8) | direction_high);
 }
 
 static uint16_t clamp_u16(uint16_t value, uint16_t low, uint16_t high) {
