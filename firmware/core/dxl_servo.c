@@ -34,8 +34,11 @@ bool dxl_servo_answers(const dxl_servo_t *servo, uint8_t id, uint8_t instruction
 }
 
 
+/* Whether the window [start, start + len) shares an address with [first_addr, last_addr], for
+ * a window within the table (start + len <= CT_SIZE: every window ct_check_write() accepts),
+ * so its end fits a byte. */
 static bool window_overlaps(uint8_t start, uint8_t len, uint8_t first_addr, uint8_t last_addr) {
-  return start <= last_addr && (uint16_t)start + len > first_addr;
+  return start <= last_addr && (uint8_t)(start + len) > first_addr;
 }
 
 /* Angle Limit condition (docs/policy.md "Goal Position and the angle limits"), for the table
