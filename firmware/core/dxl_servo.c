@@ -308,6 +308,7 @@ void dxl_servo_ping_reply(const dxl_servo_t *servo, dxl_response_t *reply) {
 /* The one write path into the table for instructions (WRITE, ACTION, SYNC_WRITE). The
  * window was checked by ct_check_write(). */
 static void apply_write(dxl_servo_t *s, uint8_t start, const uint8_t *data, uint8_t len) {
+  DXL_OPAQUE(s); /* the table and slot by displacement: 12 B less flash on the ATmega88 */
   const bool was_wheel_mode = ct_is_wheel_mode(s->table);
   for (uint8_t i = 0; i < len; i++) {
     const uint8_t addr = (uint8_t)(start + i);
