@@ -2,6 +2,7 @@
 
 #include <string.h>
 
+#include "dxl_config.h"
 #include "dxl_protocol.h"
 
 /* Offsets in a candidate: FF FF ID LENGTH INSTRUCTION PARAMS... CHECKSUM */
@@ -26,16 +27,17 @@ uint8_t dxl_checksum(const uint8_t *id_length_body, uint16_t count) {
   return (uint8_t)~sum;
 }
 
+/* The move comes last, a tail call: nothing of f needs keeping across it (its frame 8 -> 2 B
+ * and 24 B less flash on the ATmega88, measured). count <= DXL_PACKET_MAX_BYTES. */
 static void drop_front(dxl_finder_t *f, uint16_t count) {
-  if (count >= f->fill) {
-    f->fill = 0;
-  } else {
-    memmove(f->bytes, f->bytes + count, f->fill - count);
-    f->fill = (uint16_t)(f->fill - count);
-  }
+  const uint16_t kept = count >= f->fill ? 0u : (uint16_t)(f->fill - count);
+  f->fill = kept;
   f->before_gap = (count >= f->before_gap) ? 0 : (uint16_t)(f->before_gap - count);
   f->examined = 0;
   f->sum = 0;
+  if (kept != 0) {
+    memmove(f->bytes, f->bytes + count, kept);
+  }
 }
 
 static void apply_release(dxl_finder_t *f) {
@@ -60,6 +62,7 @@ static void describe(const dxl_finder_t *f, dxl_packet_t *p) {
 void dxl_finder_candidate(const dxl_finder_t *finder, dxl_packet_t *packet) { describe(finder, packet); }
 
 bool dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms) {
+  DXL_OPAQUE(finder); /* 50 B less flash on the ATmega88 (measured) */
   if ((uint16_t)(now_ms - finder->last_byte_ms) > DXL_PACKET_GAP_TIMEOUT_MS) {
     finder->skip_left = 0; /* a 2.0 frame cut by the gap ends with it */
     if (finder->fill != 0 && finder->before_gap != finder->fill) {
@@ -85,6 +88,7 @@ uint8_t *dxl_finder_push_slot(dxl_finder_t *finder, uint16_t *room, uint16_t now
 }
 
 void dxl_finder_pushed(dxl_finder_t *finder, uint16_t count, uint16_t now_ms) {
+  DXL_OPAQUE(finder); /* 8 B less flash on the ATmega88 (measured) */
   finder->fill = (uint16_t)(finder->fill + count);
   finder->last_byte_ms = now_ms;
 }
@@ -121,6 +125,7 @@ static void sum_body(dxl_finder_t *f) {
 
 dxl_find_result_t dxl_finder_next(dxl_finder_t *finder, dxl_packet_t *packet) {
   dxl_finder_t *f = finder;
+  DXL_OPAQUE(f); /* the fields by displacement from Y: 56 B less flash on the ATmega88 */
   apply_release(f);
   for (;;) {
     if (f->skip_left != 0) {

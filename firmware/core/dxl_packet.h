@@ -53,8 +53,8 @@ typedef enum {
   DXL_FIND_BAD_CHECKSUM,     /* a framed packet whose checksum is wrong; its fields are reported */
 } dxl_find_result_t;
 
+/* The counters first: within reach of the AVR's 0..63 load/store displacement (DXL_OPAQUE). */
 typedef struct {
-  uint8_t bytes[DXL_PACKET_MAX_BYTES];
   uint16_t fill;        /* bytes held */
   uint16_t examined;    /* leading bytes of bytes[] accepted as the candidate so far */
   uint16_t release;     /* bytes to drop before the next scan (a returned result's) */
@@ -62,6 +62,7 @@ typedef struct {
   uint8_t sum;          /* ID + LENGTH + body over the examined bytes */
   uint16_t last_byte_ms;
   uint16_t skip_left;   /* bytes of a Protocol 2.0 frame still to come, dropped as they do */
+  uint8_t bytes[DXL_PACKET_MAX_BYTES];
 } dxl_finder_t;
 
 void dxl_finder_init(dxl_finder_t *finder);
