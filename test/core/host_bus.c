@@ -85,9 +85,11 @@ static void after_reply(host_bus_t *bus, host_bus_servo_t *hs, uint8_t after) {
 static void deliver(host_bus_t *bus, size_t sender, uint8_t sender_baud, uint8_t byte, pending_reply_t *pending,
                     size_t *pending_count);
 
-/* Hands what the servo's finder frames now to the core and collects the replies. */
-static void handle_found(host_bus_t *bus, size_t index, pending_reply_t *pending, size_t *pending_count) {
+/* Feeds one byte to one servo and collects what it wants to send. */
+static void receive(host_bus_t *bus, size_t index, uint8_t byte, pending_reply_t *pending, size_t *pending_count) {
   host_bus_servo_t *hs = &bus->servos[index];
+  dxl_finder_push(&hs->finder, byte, now_ms(bus));
+  hs->rx_count++;
   dxl_packet_t packet;
   dxl_find_result_t found;
   while ((found = dxl_finder_next(&hs->finder, &packet)) != DXL_FIND_NONE) {
@@ -119,14 +121,6 @@ static void handle_found(host_bus_t *bus, size_t index, pending_reply_t *pending
       p->response = response;
     }
   }
-}
-
-/* Feeds one byte to one servo and collects what it wants to send. */
-static void receive(host_bus_t *bus, size_t index, uint8_t byte, pending_reply_t *pending, size_t *pending_count) {
-  host_bus_servo_t *hs = &bus->servos[index];
-  dxl_finder_push(&hs->finder, byte, now_ms(bus));
-  hs->rx_count++;
-  handle_found(bus, index, pending, pending_count);
 }
 
 /* Transmits the collected replies, earliest start first; each reply's bytes reach the master
@@ -205,14 +199,7 @@ void host_bus_wait_ms(host_bus_t *bus, uint32_t ms) {
     bus->now_us += (uint64_t)step * 1000u;
     ms -= step;
     for (size_t i = 0; i < bus->servo_count; i++) {
-      /* As the firmware's control tick: after a gap the bytes before it are rescanned at once
-       * (a packet hidden in them is handled and answered now, not at the next byte). */
-      if (dxl_finder_poll(&bus->servos[i].finder, now_ms(bus))) {
-        pending_reply_t pending[PENDING_MAX];
-        size_t pending_count = 0;
-        handle_found(bus, i, pending, &pending_count);
-        transmit_replies(bus, pending, pending_count);
-      }
+      dxl_finder_poll(&bus->servos[i].finder, now_ms(bus));
     }
   }
 }

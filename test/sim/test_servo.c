@@ -91,6 +91,27 @@ static wire_timing_t request_timing(harness_t *h, uint8_t id, uint8_t instructio
   return t;
 }
 
+/* docs/policy.md "Framing and bus": a Protocol 2.0 frame is skipped whole, by the RX
+ * interrupt's sniff and the finder alike: a whole 1.0 PING of this servo in its data is not
+ * answered (at once, and after a gap), and the 1.0 PING after it is. */
+static void test_a_protocol2_frame_with_a_1_0_ping_inside_is_not_answered(void **state) {
+  (void)state;
+  harness_t h;
+  open_one(&h, NULL);
+  static const uint8_t frame[] = {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x0B, 0x00, 0x03, 0x74,
+                                  0x00, 0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB, 0x2F, 0x8E};
+  uint8_t reply[64];
+  for (int round = 0; round < 3; round++) {
+    assert_int_equal(harness_exchange(&h, frame, sizeof frame, 0, reply, sizeof reply), 0);
+    const size_t n = harness_request(&h, 1, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0), reply);
+    expect_bytes(reply, n, ping_reply_id1, sizeof(ping_reply_id1));
+  }
+  assert_int_equal(harness_exchange(&h, frame, sizeof frame, 0, reply, sizeof reply), 0);
+  world_run_until(h.world, h.world->now + sim_ms(150)); /* past the gap: nothing either */
+  assert_int_equal(harness_exchange(&h, NULL, 0, 0, reply, sizeof reply), 0);
+  harness_close(&h);
+}
+
 static void test_ping_is_answered_on_the_wire(void **state) {
   (void)state;
   harness_t h;
@@ -603,6 +624,7 @@ int main(void) {
       cmocka_unit_test(test_another_servos_packet_is_skipped_by_its_length),
       cmocka_unit_test(test_the_sniff_reads_a_header_as_the_finder_would),
       cmocka_unit_test(test_every_firmware_variant_boots_and_answers),
+      cmocka_unit_test(test_a_protocol2_frame_with_a_1_0_ping_inside_is_not_answered),
   };
   return cmocka_run_group_tests_name("sim servo (firmware ELF)", tests, NULL, NULL);
 }
