@@ -641,14 +641,20 @@ class Conform:
     def needs(self, case, rsteps):
         """EEPROM addresses whose factory value the round depends on: those that shape every
         reply (Status Return Level, the angle limits, the temperature and voltage limits) and
-        those its READs read. ID and Baud Rate are mapped, not needed."""
+        those its READs read, and those it writes (read back after it). ID and Baud Rate are
+        mapped, not needed."""
         addrs = {T.STATUS_RETURN_LEVEL, T.CW_ANGLE_LIMIT, T.CW_ANGLE_LIMIT + 1, T.CCW_ANGLE_LIMIT,
                  T.CCW_ANGLE_LIMIT + 1, T.HIGHEST_LIMIT_TEMP, T.LOWEST_LIMIT_VOLTAGE, T.HIGHEST_LIMIT_VOLTAGE}
         for s in rsteps:
             if s["kind"] == "exchange":
-                w = read_window(R.parse_hex(s["sent"]))
+                sent = R.parse_hex(s["sent"])
+                w = read_window(sent)
                 if w:
                     addrs |= set(range(w[0], min(w[0] + w[1], T.EEPROM_SIZE)))
+                written = writes_of(sent)
+                if written != "reset":
+                    addrs |= {ITEM_AT[ad].addr + k for _, ad, _ in written if ad in ITEM_AT
+                              for k in range(ITEM_AT[ad].size)}
         return sorted(a for a in addrs if a < T.EEPROM_SIZE and a not in (T.ID, T.BAUD_RATE)
                       and access(ITEM_AT[a], self.profile) == "RW")
 
@@ -712,6 +718,19 @@ class Conform:
         for the RAM items (Goal Position 512, as the records)."""
         dev = self.dev
         problems = []
+        if self.table[T.REGISTERED_INSTRUCTION]:
+            # a write left registered by the case before: discarded by writing 0 where the
+            # device allows it, else run by ACTION (and what it wrote restored)
+            reply = dev.write(T.REGISTERED_INSTRUCTION, [0], answered=self.table[T.STATUS_RETURN_LEVEL] >= 2)
+            if reply is None or reply.code & T.ERR_RANGE:
+                self.port.exchange(P.instruction_packet(self.args.id, T.INST_ACTION, []), 6, self.args.timeout,
+                                   grace=GRACE_S)
+                table = dev.read(0, T.TABLE_SIZE)
+                if table is None or table[:T.EEPROM_SIZE] != self.table[:T.EEPROM_SIZE]:
+                    self.touched_eeprom = True
+                    self.restore(final=False)
+                else:
+                    self.table = table
         items = sorted({ITEM_AT[a].addr for a in differ}, key=lambda ad: ad != T.STATUS_RETURN_LEVEL)
         for addr in items:  # Status Return Level first: the others' replies depend on it
             item = T.BY_ADDR[addr]
@@ -721,11 +740,6 @@ class Conform:
             self.table[addr:addr + item.size] = factory[addr:addr + item.size]
             if answered and (reply is None or reply.code & ~T.ERR_CONDITIONS):
                 problems.append("WRITE of %s" % item.title)
-        if self.table[T.REGISTERED_INSTRUCTION]:
-            if access(T.BY_ADDR[T.REGISTERED_INSTRUCTION], self.profile) == "RW":
-                dev.write(T.REGISTERED_INSTRUCTION, [0])
-            else:
-                self.port.exchange(P.instruction_packet(self.args.id, T.INST_ACTION, []), 6, self.args.timeout)
         ram = factory[T.TORQUE_ENABLE:T.TORQUE_LIMIT + 2]
         reply = dev.write(T.TORQUE_ENABLE, ram)
         if reply is None or reply.code & ~T.ERR_CONDITIONS:
@@ -818,10 +832,12 @@ class Conform:
             apply_changes(table, s.get("changes"))
             checked |= changed_addrs(s.get("changes"))
             if w != "reset":
-                checked |= {ad for sid, ad, _ in w if (sid is None or sid == before_id) and ad in ITEM_AT}
+                checked |= {ITEM_AT[ad].addr for sid, ad, _ in w if (sid is None or sid == before_id) and ad in ITEM_AT}
             if effective_reset:
+                # the whole table is the factory's now, but Goal Position (= Present Position)
                 where_id, where_baud = 1, 1
                 self.written.add((1, 1))
+                checked = {it.addr for it in T.ITEMS if access(it, self.profile) == "RW"} - {T.GOAL_POSITION}
             else:
                 where_id = idmap.get(table[T.ID], table[T.ID])
                 where_baud = baudmap.get(table[T.BAUD_RATE], table[T.BAUD_RATE])
@@ -847,8 +863,7 @@ class Conform:
             return
         self.table = list(got)
         expect = list(table)
-        expect[T.ID] = idmap.get(table[T.ID], table[T.ID])
-        expect[T.BAUD_RATE] = baudmap.get(table[T.BAUD_RATE], table[T.BAUD_RATE])
+        expect[T.ID], expect[T.BAUD_RATE] = where_id, where_baud
         wrong = []
         for addr in sorted(checked):
             item = ITEM_AT.get(addr)
