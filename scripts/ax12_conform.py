@@ -341,7 +341,7 @@ class Port:
                 return out
             out += chunk
 
-    def exchange(self, data, expect_len, timeout, quiet=0.003, grace=0.0):
+    def exchange(self, data, expect_len, timeout, quiet=0.001, grace=0.0):
         """Sends data; collects what comes back until expect_len bytes (or more) and a quiet
         gap, or until timeout after the request's end (when expect_len bytes are due, grace
         seconds longer). Returns (bytes, request end, arrival of the first byte or None)."""
@@ -452,6 +452,7 @@ class Case:
         self.skip_kind = None
         self.differences = []  # [{step, sent, expected, heard, note}]
         self.notes = []
+        self.seconds = 0.0
         self.timings = []  # [(reply start after the request's end s, RDT s)]
         self.eeprom = False
         self.rounds = R.split_rounds(record["steps"])
@@ -696,8 +697,9 @@ class Conform:
         case.status = "passed"
         for number, (bus, rsteps, factory, differ) in enumerate(plans, 1):
             self.run_round(case, number, bus, rsteps, factory, differ, idmap, baudmap)
-            if case.eeprom or differ:
-                self.restore(final=False)
+            if (case.eeprom or differ) and not self.restore(final=False):
+                case.status = "failed"
+                raise Problem("the device stopped answering during '%s' and could not be found again" % case.name)
         if case.differences:
             case.status = "failed"
 
@@ -852,8 +854,9 @@ class Conform:
         self.port.set_register(where_baud)
         label = "round %d, table after" % number if len(case.rounds) > 1 else "table after"
         if table[T.STATUS_RETURN_LEVEL] == 0:
-            # to read it back; restored after
-            self.dev.write(T.STATUS_RETURN_LEVEL, [1], ident=where_id, answered=False)
+            # to read it back: the level it had (or 1), so that restoring it costs nothing more
+            self.dev.write(T.STATUS_RETURN_LEVEL, [max(1, self.original[T.STATUS_RETURN_LEVEL])], ident=where_id,
+                           answered=False)
             self.touched_eeprom = True
             checked = checked - {T.STATUS_RETURN_LEVEL}
         got = self.dev.read(0, T.TABLE_SIZE, ident=where_id)
@@ -923,7 +926,7 @@ class Conform:
             addrs += [it for it in T.ITEMS if it.addr >= T.EEPROM_SIZE and access(it, self.profile) == "RW"
                       and it.addr not in (T.LOCK, T.REGISTERED_INSTRUCTION)]
         # Status Return Level first when it silences replies, then the rest
-        addrs.sort(key=lambda it: it.addr != T.STATUS_RETURN_LEVEL or table[T.STATUS_RETURN_LEVEL] >= 1)
+        addrs.sort(key=lambda it: it.addr != T.STATUS_RETURN_LEVEL or table[T.STATUS_RETURN_LEVEL] >= 2)
         level = table[T.STATUS_RETURN_LEVEL]
         for it in addrs:
             want = orig[it.addr:it.addr + it.size]
@@ -968,7 +971,9 @@ class Conform:
             if case.status == "skipped":
                 continue
             self.say("[%d/%d] %s: %s" % (n, len(self.cases), case.group, case.name)) if self.args.verbose else None
+            started = time.monotonic()
             self.run_case(case)
+            case.seconds = time.monotonic() - started
             if case.status == "failed":
                 self.verbose("  FAILED: %s" % first_difference(case))
 
@@ -977,9 +982,12 @@ class Conform:
         if self.original is None or self.port is None:
             return True
         self.restoring = True
-        self.port.drain()
-        ok = self.restore(final=True)
-        return ok
+        try:
+            self.port.drain()
+            return self.restore(final=True)
+        except (OSError, serial.SerialException, Problem) as e:
+            self.restore_problems.append("the port failed while restoring: %s" % e)
+            return False
 
 
 def first_difference(case):
@@ -1042,7 +1050,7 @@ def summarise(conform, records_profile, interrupted):
         "interrupted": interrupted,
         "cases": [{"group": c.group, "name": c.name, "status": c.status or "not run",
                    "eeprom": c.eeprom, "reason": c.reason, "differences": c.differences,
-                   "notes": c.notes,
+                   "notes": c.notes, "seconds": round(c.seconds, 3),
                    "replies": [{"step": label, "start_us": round(st * 1e6), "return_delay_us": round(rdt * 1e6)}
                                for label, st, rdt, _ in c.timings]} for c in conform.cases],
     }
@@ -1177,7 +1185,11 @@ def main():
         print("ax12 conform: refused: %s" % e, file=sys.stderr)
         return EXIT_REFUSED
     except (Problem, OSError, serial.SerialException) as e:
-        print("ax12 conform: %s" % e, file=sys.stderr)
+        if isinstance(e, Problem):
+            print("ax12 conform: %s" % e, file=sys.stderr)
+        else:
+            print("ax12 conform: the port %s failed: %s (did the device, its adapter or the emulator behind "
+                  "it go away?)" % (args.port, e), file=sys.stderr)
         if conform.restore_problems:
             for p in conform.restore_problems:
                 print("ax12 conform: NOT RESTORED: %s" % p, file=sys.stderr)
