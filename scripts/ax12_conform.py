@@ -42,6 +42,9 @@ GROUP_NAMES = {"matrix": "reply matrix", "reply matrix": "reply matrix", "ranges
                "write ranges": "write ranges", "errors": "error paths", "error paths": "error paths",
                "conversations": "conversations"}
 BITS_PER_BYTE = 10  # 8N1
+# Baud Rate registers of the usual bauds (1 Mbps, 500k, 400k, 250k, 200k, 115200, 57600, 19200,
+# 9600): where a device that cannot be found is looked for last.
+COMMON_BAUDS = (1, 3, 4, 7, 9, 16, 34, 103, 207)
 # A reply that is due but late is still waited for this long past --timeout (and reported as
 # late): an emulator on a busy host can fall behind the wall clock for tens of milliseconds.
 GRACE_S = 0.5
@@ -514,6 +517,7 @@ class Conform:
         self.where = None  # (id, register) the device is expected at now
         self.written = set()  # (id, register) it may have been moved to
         self.restoring = False
+        self.case_ids, self.case_bauds = set(), set()  # where the case running may move the device
 
     def say(self, text):
         print(text, file=sys.stderr, flush=True)
@@ -664,6 +668,8 @@ class Conform:
         if why:
             case.skip("mapping", why)
             return
+        self.case_ids = {i for i in idmap.values() if i != T.ID_BROADCAST} | {1}
+        self.case_bauds = set(baudmap.values()) | {1}
         # malformed packets carry IDs that cannot be rewritten
         for bus, rsteps in case.rounds:
             for s in rsteps:
@@ -887,8 +893,8 @@ class Conform:
         orig = (self.args.id, self.original[T.BAUD_RATE])
         cands = [self.where, orig, (1, 1), (self.where[0], orig[1]), (orig[0], self.where[1]), (1, orig[1])]
         cands += sorted(self.written)
-        ids = {c[0] for c in cands}
-        bauds = {c[1] for c in cands}
+        ids = {c[0] for c in cands} | self.case_ids
+        bauds = {c[1] for c in cands} | self.case_bauds | set(COMMON_BAUDS)
         cands += [(i, b) for b in sorted(bauds) for i in sorted(ids)]
         for attempt in range(3):
             for ident, reg in dict.fromkeys(cands):
