@@ -1062,9 +1062,14 @@ def summarise(conform, records_profile, interrupted):
     }
 
 
-SKIP_WORDS = {"eeprom": "need --allow-eeprom", "power-cycle": "need a power cycle", "servos": "need two servos",
-              "event": "set a condition inside the servo", "api": "use the core's API (no bus)",
-              "lock": "set Lock", "temperature": "need another temperature", "mapping": "cannot be mapped to this ID/baud"}
+SKIP_WORDS = {"eeprom": "write the EEPROM area: run with --allow-eeprom",
+              "power-cycle": "power-cycle the servo (not over a port)",
+              "servos": "need more than one servo on the bus",
+              "event": "set a condition inside the servo (not over a port)",
+              "api": "call the core's API directly (no bus)",
+              "lock": "set Lock (only a power cycle clears it)",
+              "temperature": "need the servo at another temperature",
+              "mapping": "cannot be mapped to this device's ID and baud (see the JSON report)"}
 
 
 def text_summary(s, conform):
@@ -1083,7 +1088,9 @@ def text_summary(s, conform):
     t = s["totals"]
     lines.append("%-14s %7d %7d %8d" % ("total", t["passed"], t["failed"], t["skipped"]))
     if s["skipped_reasons"]:
-        lines.append("skipped: " + ", ".join("%d %s" % (n, SKIP_WORDS.get(k, k)) for k, n in s["skipped_reasons"].items()))
+        lines.append("skipped:")
+        for k, n in sorted(s["skipped_reasons"].items(), key=lambda kv: (-kv[1], kv[0])):
+            lines.append("  %3d %s" % (n, SKIP_WORDS.get(k, k)))
     failed = [c for c in conform.cases if c.status == "failed"]
     if failed:
         lines.append("")
