@@ -414,6 +414,7 @@ class Device:
         self.log = log
 
     def ping(self, ident=None, grace=0.0):
+        self.port.drain()  # nothing late from before may pass for the reply
         packet = P.instruction_packet(self.id if ident is None else ident, T.INST_PING, [])
         got, _, _ = self.port.exchange(packet, 6, self.timeout, grace=grace)
         p = P.parse(got)
@@ -423,6 +424,7 @@ class Device:
 
     def read(self, addr, count, ident=None):
         ident = self.id if ident is None else ident
+        self.port.drain()
         packet = P.instruction_packet(ident, T.INST_READ, [addr, count])
         got, _, _ = self.port.exchange(packet, 6 + count, self.timeout, grace=GRACE_S)
         p = P.parse(got)
@@ -434,6 +436,7 @@ class Device:
         """WRITE; returns the status packet, or None when silent. answered: whether a reply is
         due (Status Return Level 2): only then is a late one waited for."""
         ident = self.id if ident is None else ident
+        self.port.drain()
         eeprom = sum(1 for k in range(len(values)) if addr + k < T.EEPROM_SIZE)
         extra = EEPROM_BYTE_S * (eeprom + 2) if eeprom else 0.0
         packet = P.instruction_packet(ident, T.INST_WRITE, [addr] + list(values))
@@ -857,8 +860,12 @@ class Conform:
     def check_after(self, case, number, table, checked, idmap, baudmap):
         """The items the round wrote or changed, read back: they must hold what the record says."""
         where_id, where_baud = self.where
-        self.port.set_register(where_baud)
         label = "round %d, table after" % number if len(case.rounds) > 1 else "table after"
+        stray = self.port.drain()
+        if stray:
+            case.differences.append({"step": label, "note": "%d byte(s) arrived after the last step's timeout: %s"
+                                     % (len(stray), hexs(stray))})
+        self.port.set_register(where_baud)
         if table[T.STATUS_RETURN_LEVEL] == 0:
             # to read it back: the level it had (or 1), so that restoring it costs nothing more
             self.dev.write(T.STATUS_RETURN_LEVEL, [max(1, self.original[T.STATUS_RETURN_LEVEL])], ident=where_id,
