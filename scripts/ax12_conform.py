@@ -407,11 +407,10 @@ class Port:
 class Device:
     """The device under test and the talk to it outside the cases: PING, READ, WRITE."""
 
-    def __init__(self, port, ident, timeout, log):
+    def __init__(self, port, ident, timeout):
         self.port = port
         self.id = ident
         self.timeout = timeout
-        self.log = log
 
     def ping(self, ident=None, grace=0.0):
         self.port.drain()  # nothing late from before may pass for the reply
@@ -519,7 +518,6 @@ class Conform:
         self.touched_eeprom = False
         self.where = None  # (id, register) the device is expected at now
         self.written = set()  # (id, register) it may have been moved to
-        self.restoring = False
         self.case_ids, self.case_bauds = set(), set()  # where the case running may move the device
 
     def say(self, text):
@@ -534,7 +532,7 @@ class Conform:
     def start(self):
         a = self.args
         self.port = Port(a.port, a.baud_register)
-        self.dev = Device(self.port, a.id, a.timeout, self.verbose)
+        self.dev = Device(self.port, a.id, a.timeout)
         self.where = (a.id, a.baud_register)
         self.port.drain()
         first = self.dev.ping()
@@ -994,7 +992,6 @@ class Conform:
         """Restores everything at the end (also after an interruption or an error)."""
         if self.original is None or self.port is None:
             return True
-        self.restoring = True
         try:
             self.port.drain()
             return self.restore(final=True)

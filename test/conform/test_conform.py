@@ -21,6 +21,7 @@ import json
 import os
 import pty
 import re
+import select
 import shutil
 import signal
 import subprocess
@@ -381,7 +382,6 @@ class FakeBus:
         buf = b""
         while not self.stop:
             try:
-                import select
                 r, _, _ = select.select([self.master], [], [], 0.05)
                 if not r:
                     continue
