@@ -20,6 +20,22 @@
 #define STATUS_LEVEL_ALL 2u
 #define BROADCAST_PING_ANSWERED (DXL_PROFILE == DXL_PROFILE_AX12)
 
+/* Deliberate defects, for the tests of `scripts/ax12 conform` only (test/conform builds extra
+ * ELFs with them, through AX12_CONFORM_DEFECT in firmware/CMakeLists.txt): one ignores the
+ * Status Return Level (answers as at level 2), one answers a broadcast READ. Never defined in
+ * a product build. */
+#ifdef AX12_CONFORM_DEFECT_IGNORE_SRL
+#define STATUS_LEVEL(servo) STATUS_LEVEL_ALL
+#else
+#define STATUS_LEVEL(servo) ((servo)->table[CT_ADDR_STATUS_RETURN_LEVEL])
+#endif
+#ifdef AX12_CONFORM_DEFECT_BROADCAST_READ
+#define BROADCAST_ANSWERED(instruction) \
+  ((BROADCAST_PING_ANSWERED && (instruction) == DXL_INST_PING) || (instruction) == DXL_INST_READ)
+#else
+#define BROADCAST_ANSWERED(instruction) (BROADCAST_PING_ANSWERED && (instruction) == DXL_INST_PING)
+#endif
+
 static uint8_t min_status_level(uint8_t instruction) {
   switch (instruction) {
   case DXL_INST_PING:
@@ -33,9 +49,9 @@ static uint8_t min_status_level(uint8_t instruction) {
 
 bool dxl_servo_answers(const dxl_servo_t *servo, uint8_t id, uint8_t instruction) {
   if (id == DXL_ID_BROADCAST) {
-    return BROADCAST_PING_ANSWERED && instruction == DXL_INST_PING;
+    return BROADCAST_ANSWERED(instruction);
   }
-  return id == servo->table[CT_ADDR_ID] && servo->table[CT_ADDR_STATUS_RETURN_LEVEL] >= min_status_level(instruction);
+  return id == servo->table[CT_ADDR_ID] && STATUS_LEVEL(servo) >= min_status_level(instruction);
 }
 
 
@@ -131,7 +147,7 @@ uint8_t dxl_servo_stream_mask(const dxl_servo_t *servo) {
       (1u << DXL_INST_PING) | (1u << DXL_INST_READ) | (1u << DXL_INST_WRITE) | (1u << DXL_INST_REG_WRITE) |
           (1u << DXL_INST_ACTION),
   };
-  const uint8_t level = servo->table[CT_ADDR_STATUS_RETURN_LEVEL];
+  const uint8_t level = STATUS_LEVEL(servo);
   uint8_t mask = mask_from_level[level > STATUS_LEVEL_ALL ? STATUS_LEVEL_ALL : level];
   if (servo->table[CT_ADDR_REGISTERED_INSTRUCTION] != 0 &&
       (after_flags_of_write(servo->reg_start, servo->reg_len) & DXL_AFTER_APPLY_BAUD) != 0) {
@@ -377,7 +393,7 @@ void dxl_servo_reject_checksum(dxl_servo_t *servo, const dxl_packet_t *packet, d
   }
   response->events = DXL_ERR_CHECKSUM;
   servo->pending_events |= DXL_ERR_CHECKSUM;
-  if (servo->table[CT_ADDR_STATUS_RETURN_LEVEL] >= STATUS_LEVEL_ALL) {
+  if (STATUS_LEVEL(servo) >= STATUS_LEVEL_ALL) {
     encode_status(servo, (uint8_t)(DXL_ERR_CHECKSUM | dxl_servo_conditions(servo)), NULL, 0, response);
   }
 }
