@@ -9,12 +9,7 @@ static dxl_control_t control;
 static bool led_on;
 
 uint8_t control_tick(dxl_servo_t *servo, const dxl_sensors_t *sensors) {
-  /* The state through a pointer the compiler cannot see through: the inlined tick then reaches
-   * its fields with LDD/STD (2 B) instead of LDS/STS at their fixed addresses (4 B): 54 B less
-   * flash on the ATmega88 (measured), the same cycles. */
-  dxl_control_t *c = &control;
-  __asm__("" : "+r"(c));
-  const int16_t drive = dxl_control_tick(c, servo, sensors, &led_on);
+  const int16_t drive = dxl_control_tick(&control, servo, sensors, &led_on);
   const int16_t duty = dxl_control_duty((uint16_t)(drive < 0 ? -drive : drive));
   motor_set_drive(drive < 0 ? (int16_t)-duty : duty);
   return control.conditions;

@@ -188,7 +188,7 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
     }
     const uint8_t start = params[0];
     const uint8_t len = params[1];
-    if (len == 0 || start >= CT_SIZE || len > CT_SIZE - start) {
+    if (len == 0 || start >= CT_SIZE || len > (uint8_t)(CT_SIZE - start)) {
       return DXL_ERR_RANGE;
     }
     r->window_start = start;
