@@ -103,19 +103,22 @@ def test_u2d2_16_hands_replies_over_when_its_latency_timer_expires(emulator, tmp
     set_rdt_zero(fd)
     delays, split = delays_ms(fd, 150, seed=18)
     os.close(fd)
-    # Up to 16 ms after the reply left the wire, uniformly: the model's distribution.
+    # As the client sees it (wall clock, with the host's own delays on top): up to 16 ms after
+    # the reply left the wire, uniformly: the model's distribution.
     assert delays[0] >= 0.15, delays[:5]
-    assert delays[int(0.98 * len(delays))] <= 16.0 + WIRE_AND_FRAME_MS + 1.5, delays[-5:]
-    assert 6.0 <= statistics.median(delays) <= 10.5, statistics.median(delays)
+    assert delays[int(0.98 * len(delays))] <= 16.0 + WIRE_AND_FRAME_MS + 3.0, delays[-5:]
+    assert 6.0 <= statistics.median(delays) <= 12.0, statistics.median(delays)
     d = ks_uniform(delays, WIRE_AND_FRAME_MS, 16.0 + WIRE_AND_FRAME_MS)
-    assert d < 0.16, (d, delays[::15])
+    assert d < 0.2, (d, delays[::15])
     # Whole replies, but for one straddling an expiry (8 bytes: 80 us of 16 ms, 0.5 %).
     assert split <= 4, split
+    # As the model counted it (simulated time, exact): the wait of each reply's last byte for
+    # the timer, uniform on [0, 16) ms: mean 8 ms, its standard error 0.4 ms over 150.
     err = stats_of(emu)
     m = re.search(r"adapter u2d2:16 .*USB packets to the client (\d+) \(([\d.]+) bytes per packet.*"
                   r"latency waits mean ([\d.]+) ms, max ([\d.]+) ms", err)
     assert m, err
-    assert int(m.group(1)) >= 151 and 0.0 < float(m.group(3)) < 16.0 and float(m.group(4)) <= 16.0, err
+    assert int(m.group(1)) >= 151 and 6.5 <= float(m.group(3)) <= 9.5 and float(m.group(4)) <= 16.0, err
 
 
 def test_u2d2_1_hands_replies_over_within_about_a_millisecond(emulator, tmp_path):
@@ -163,9 +166,11 @@ def test_a_client_parsing_whatever_one_read_returns_gets_every_reply_whole(emula
 
 def test_at_u2d2_1_a_reply_rarely_straddles_a_timer_expiry(emulator, tmp_path):
     # 1 ms latency in a tight loop: the reply ends ~0.8-1 ms after the previous hand-over,
-    # near the next expiry; one that straddles it comes in two packets (measured ~0.5 %).
+    # near the next expiry; one that straddles it comes in two packets: 0.3-0.5 % on a quiet
+    # machine, up to the 8 % of a random phase (80 us of 1 ms) when the host's delays scatter
+    # the requests. Never more: the rest arrive whole.
     emu = emulator("--adapter", "u2d2:1", "--state-dir", str(tmp_path))
-    assert naive_failures(emu, 1000) <= 20
+    assert naive_failures(emu, 1000) <= 100
 
 
 def test_the_bus_sees_the_baud_the_chip_makes(emulator, tmp_path):
