@@ -177,14 +177,20 @@ def sdk_client_loop(emu, firmware_dir, servos, seconds, adapter=DEFAULT_ADAPTER)
                 sync.addParam(i, [goals[i] & 0xFF, goals[i] >> 8])
             sync.txPacket()
             for i in range(1, servos + 1):
-                _, result, _ = packet.read2ByteTxRx(port, i, T.PRESENT_POSITION)
+                try:
+                    _, result, _ = packet.read2ByteTxRx(port, i, T.PRESENT_POSITION)
+                except IndexError:  # DynamixelSDK 4.1.0 takes a late 6-byte status of that ID as the reply
+                    result = -1
                 failures += result != 0
             loops += 1
         elapsed = seconds
         time.sleep(1.5)  # let every servo arrive
         reached = 0
         for i in range(1, servos + 1):
-            position, result, _ = packet.read2ByteTxRx(port, i, T.PRESENT_POSITION)
+            try:
+                position, result, _ = packet.read2ByteTxRx(port, i, T.PRESENT_POSITION)
+            except IndexError:
+                position, result = 0, -1
             reached += result == 0 and abs(position - goals[i]) <= 4
         port.closePort()
     finally:

@@ -5,7 +5,8 @@ The emulator is found through the environment:
                      when unset, the usual build folders are searched.
   AX12_FIRMWARE_DIR  folder of the AVR ELFs, passed on to the emulator (environment and its
                      --firmware-dir option when the emulator has one).
-  AX12_EMU_ARGS      extra arguments appended to every `serve` command line (optional).
+  AX12_EMU_ARGS      extra arguments appended to every `serve` command line (optional), e.g.
+                     `--adapter u2d2:16` to run a suite behind another USB adapter model.
   AX12_EMU_READY_TIMEOUT  seconds to wait for `ready:` (default 30).
 
 State folders live under pytest's temporary directory (`--basetemp DIR` moves them).
@@ -176,6 +177,24 @@ class Emulator:
 
 
 _help_cache = {}
+
+
+def adapter_handover_ms():
+    """The longest the USB adapter of AX12_EMU_ARGS (`--adapter KIND[:MS]`, serve's default
+    `u2d2` at 1 ms) adds to a reply: its latency timer plus the USB frame a request waits for
+    (docs/emulator.md "The USB adapter"). 0 for `wire`."""
+    args = shlex.split(os.environ.get("AX12_EMU_ARGS", ""))
+    kind = "u2d2"
+    for i, arg in enumerate(args):
+        if arg == "--adapter" and i + 1 < len(args):
+            kind = args[i + 1]
+        elif arg.startswith("--adapter="):
+            kind = arg.split("=", 1)[1]
+    name, _, latency = kind.partition(":")
+    if name == "wire":
+        return 0.0
+    frame_ms = 1.0 if name == "usb2dynamixel" else 0.125
+    return float(latency or 1) + frame_ms
 
 
 def _cached_help(emu):

@@ -9,6 +9,20 @@ from pyax12 import status_packet as sp
 
 import ax12_policy as P
 import ax12_table as T
+from conftest import adapter_handover_ms
+
+PYAX12_WAIT_MS = 20.0
+EEPROM_BYTE_MS = 3.4  # a changed EEPROM byte, and the image's CRC after them (docs/firmware.md)
+
+
+def skip_past_pyax12s_wait(reply_ms, what):
+    """pyax12 parses what has arrived 20 ms after a request. Behind a USB adapter a reply also
+    waits for the adapter's latency timer (and a request for its USB frame): with Linux's
+    default 16 ms (`--adapter u2d2:16`) an EEPROM write's reply can come after those 20 ms, and
+    pyax12 misses it, as it would on that hardware (docs/emulator.md "The USB adapter")."""
+    if reply_ms + adapter_handover_ms() > PYAX12_WAIT_MS:
+        pytest.skip("%s: the reply comes %.1f ms after the request, plus up to %.1f ms behind this "
+                    "adapter: past pyax12's 20 ms, as on hardware" % (what, reply_ms, adapter_handover_ms()))
 
 
 @pytest.fixture
@@ -63,6 +77,7 @@ def test_present_position_and_goto(conn):
 
 
 def test_eeprom_setters(conn):
+    skip_past_pyax12s_wait(2 * EEPROM_BYTE_MS + 0.5 + 0.17, "a WRITE of one changed EEPROM byte")
     conn.set_cw_angle_limit(3, 100)
     conn.set_ccw_angle_limit(3, 900)
     conn.set_return_delay_time(3, 100)      # microseconds: register 50
@@ -102,6 +117,7 @@ def test_eeprom_writes_of_up_to_four_changed_bytes_are_answered_within_pyax12s_2
     byte and then the image's CRC, 3.4 ms each: docs/firmware.md), so that a reply proves the
     value survives a power cut; up to four changed bytes (e.g. both angle limits) fit in
     pyax12's 20 ms. RAM writes are answered Return Delay Time after the packet."""
+    skip_past_pyax12s_wait(5 * EEPROM_BYTE_MS + 0.5 + 0.18, "a WRITE of four changed EEPROM bytes")
     settings = bytes([100, 55, 150, 0x20, 0x03])   # addresses 11..15: four bytes change
     conn.write_data(1, T.HIGHEST_LIMIT_TEMP, settings)
     assert conn.read_data(1, T.HIGHEST_LIMIT_TEMP, len(settings)) == settings
