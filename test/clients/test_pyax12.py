@@ -94,6 +94,7 @@ def test_out_of_range_write_raises_range_error(conn):
 
 
 def test_goal_outside_angle_limits_raises_angle_limit_error(conn):
+    skip_past_pyax12s_wait(2 * EEPROM_BYTE_MS + 0.5 + 0.17, "set_cw_angle_limit, an EEPROM write")
     conn.goto(2, 512)
     conn.set_cw_angle_limit(2, 200)
     with pytest.raises(sp.AngleLimitError):
@@ -106,6 +107,7 @@ def test_goal_outside_angle_limits_raises_angle_limit_error(conn):
 
 
 def test_id_change(conn):
+    skip_past_pyax12s_wait(2 * EEPROM_BYTE_MS + 0.5 + 0.17, "set_id, an EEPROM write")
     conn.set_id(3, 7)          # answered with the old ID 3
     assert conn.ping(7)
     assert not conn.ping(3)
