@@ -29,6 +29,31 @@ static void on_signal(int sig) {
   stop_requested = 1;
 }
 
+/* The adapter's figures: USB packets to the host and their size, latency-timer waits, client
+ * writes and their frame waits, the baud the bus saw. */
+static void print_adapter_stats(const pty_bridge_t *pty) {
+  const usb_adapter_t *a = &pty->adapter;
+  const usb_adapter_stats_t *st = &a->stats;
+  char name[96];
+  usb_adapter_describe(&a->config, name, sizeof(name));
+  if (a->config.kind == USB_ADAPTER_WIRE) {
+    fprintf(stderr, "ax12-emu: adapter wire: client baud %.0f (exact on the bus)\n", pty->bps);
+    return;
+  }
+  fprintf(stderr,
+          "ax12-emu: adapter %s: USB packets to the client %llu (%.1f bytes per packet, largest %llu; %llu full, "
+          "%llu at the latency timer, %llu status-only), latency waits mean %.3f ms, max %.3f ms; client writes %llu "
+          "in %llu USB packets, frame wait mean %.3f ms; client baud %.0f -> %.1f on the bus\n",
+          name, (unsigned long long)st->in_packets, st->in_packets ? (double)st->in_bytes / (double)st->in_packets : 0.0,
+          (unsigned long long)st->max_in_bytes, (unsigned long long)st->in_full_packets,
+          (unsigned long long)st->in_timer_packets, (unsigned long long)st->in_status_only,
+          st->in_timer_packets ? sim_cycles_to_us(st->latency_wait_total) / 1e3 / (double)st->in_timer_packets : 0.0,
+          sim_cycles_to_us(st->latency_wait_max) / 1e3, (unsigned long long)st->out_writes,
+          (unsigned long long)st->out_packets,
+          st->out_writes ? sim_cycles_to_us(st->frame_wait_total) / 1e3 / (double)st->out_writes : 0.0, pty->bps,
+          pty->actual_bps);
+}
+
 static void print_stats(const world_t *world, const pty_bridge_t *pty, const pacing_t *pacing) {
   fprintf(stderr, "ax12-emu: simulated %.3f s at %.2fx real time; ", sim_cycles_to_us(world->now) / 1e6,
           pacing_speed(pacing, world->now));
@@ -40,6 +65,7 @@ static void print_stats(const world_t *world, const pty_bridge_t *pty, const pac
           (unsigned long long)pty->from_client, (unsigned long long)pty->to_client,
           (unsigned long long)pty->dropped_to_client, (unsigned long long)world->bus.collided_bytes,
           (unsigned long long)world->bus.mismatched_deliveries);
+  print_adapter_stats(pty);
   if (world->bus.noise.bit_error_rate > 0.0) {
     fprintf(stderr, "ax12-emu: noise at %g per bit: %llu bytes corrupted, %llu bits flipped\n",
             world->bus.noise.bit_error_rate, (unsigned long long)world->bus.noise_corrupted_bytes,
@@ -127,7 +153,8 @@ int emu_serve(const serve_options_t *o) {
   uint8_t first_baud = (uint8_t)o->baud;
   (void)eeprom_store_image_fields(world->servos[0]->eeprom, world->servos[0]->eeprom_size, NULL, &first_baud);
   pty_bridge_t pty;
-  if (pty_bridge_open(&pty, &world->bus, &world->now, sim_baud_reg_to_bps(first_baud), o->link, err, sizeof(err)) != 0) {
+  if (pty_bridge_open(&pty, &world->bus, &world->now, sim_baud_reg_to_bps(first_baud), &o->adapter, o->link, err,
+                      sizeof(err)) != 0) {
     fprintf(stderr, "ax12-emu: %s\n", err);
     release_locks(locks, lock_count);
     world_destroy(world);
@@ -165,19 +192,26 @@ int emu_serve(const serve_options_t *o) {
   }
   printf("ready: %s\n", pty.device);
   fflush(stdout);
-  fprintf(stderr, "ax12-emu: %zu servo%s (%s, %s) on %s%s%s, state in %s, %s\n", world->servo_count,
+  char adapter_name[96];
+  usb_adapter_describe(&o->adapter, adapter_name, sizeof(adapter_name));
+  fprintf(stderr, "ax12-emu: %zu servo%s (%s, %s) on %s%s%s, adapter %s, state in %s, %s\n", world->servo_count,
           world->servo_count == 1 ? "" : "s", eeprom_profile_name(o->profile), o->mcu, pty.device, o->link ? " = " : "",
-          o->link ? o->link : "", o->state_dir, o->realtime ? "real time" : "fast");
+          o->link ? o->link : "", adapter_name, o->state_dir, o->realtime ? "real time" : "fast");
 
   bool warned_persist = false;
   double lag_report_at_us = pacing_wall_us() + LAG_REPORT_PERIOD_US;
   double lag_reported_us = 0.0;
   while (!stop_requested) {
-    /* Up to the next client byte's arrival at most (it enters the wire at that exact time). */
+    /* Up to the next client byte's arrival at most (it enters the wire at that exact time),
+     * and to the adapter's next hand-over to the client (its latency timer). */
     sim_cycles_t until = world->now + slice;
     const sim_cycles_t next_input = pty_bridge_next_input(&pty);
     if (next_input > world->now && next_input < until) {
       until = next_input;
+    }
+    const sim_cycles_t next_output = pty_bridge_next_output(&pty);
+    if (next_output > world->now && next_output < until) {
+      until = next_output;
     }
     world_run_until(world, until);
     (void)pty_bridge_pump(&pty, o->realtime ? sim_of_wall : NULL, &pacing);
