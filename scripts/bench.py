@@ -140,16 +140,22 @@ def sdk_loop_floor_us(servos, rdt_us):
 
 
 def sdk_ping_median_ms(emu, firmware_dir, pings, adapter=DEFAULT_ADAPTER):
+    """Median of the answered pings; a loaded host can delay a reply past the SDK's timeout
+    (docs/emulator.md "pty limit"), so up to a tenth may fail before the figure is refused."""
     serve = Serve(emu, firmware_dir, "1", ("--adapter", adapter))
     try:
         port, packet = sdk_port(serve.device)
         times = []
+        failed = 0
         for _ in range(pings):
             t0 = time.perf_counter()
             _, result, _ = packet.ping(port, 1)
-            times.append((time.perf_counter() - t0) * 1e3)
             if result != 0:
-                raise RuntimeError("ping failed")
+                failed += 1
+                if failed > pings // 10:
+                    raise RuntimeError("%d of %d pings failed" % (failed, len(times) + failed))
+                continue
+            times.append((time.perf_counter() - t0) * 1e3)
         port.closePort()
     finally:
         serve.stop()
