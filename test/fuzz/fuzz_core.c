@@ -19,7 +19,9 @@
  *   - replies: a reply only where "Replies" says one is due (ID, broadcast, Status Return
  *     Level, as the servo was before the packet), a well-formed status packet of the old ID
  *     with a correct checksum, LENGTH 2, or 2 + n for a READ of n bytes, whose data are the
- *     table's; its event bits are the packet's; the Return Delay Time is the old one;
+ *     table's; its event bits are the packet's, its condition bits those held (the Angle
+ *     Limit condition kept by the harness: "Goal Position and the angle limits"); the Return
+ *     Delay Time is the old one;
  *     dxl_servo_answers() and dxl_servo_ping_reply() agree with it;
  *   - another servo's packet (or a bad checksum of one, or a broadcast one) changes nothing
  *     and stores nothing;
@@ -123,6 +125,9 @@ typedef struct {
   bool have_in_flight;
   uint8_t in_flight[CT_EEPROM_SIZE];
   unsigned persists; /* dxl_after_port_persist calls */
+  /* docs/policy.md "Goal Position and the angle limits", kept here apart from the core: in
+   * wheel mode, whether a Goal Position was written since wheel mode began. */
+  bool wheel_goal_written;
   uint8_t uart_baud; /* the last dxl_after_port_set_baud */
 } world_t;
 
@@ -536,6 +541,63 @@ static void after_store_step(world_t *w) {
   }
 }
 
+static bool wheel_mode(const uint8_t *table) {
+  return ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT) == 0 && ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT) == 0;
+}
+
+/* The Angle Limit condition of a table: the goal outside CW..CCW, or in wheel mode a goal
+ * written since wheel mode began. */
+static bool angle_condition(const world_t *w, const uint8_t *table) {
+  if (wheel_mode(table)) {
+    return w->wheel_goal_written;
+  }
+  const uint16_t goal = ct_get_u16(table, CT_ADDR_GOAL_POSITION);
+  return goal < ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT) || goal > ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT);
+}
+
+/* The window a committed packet without an error wrote (length 0: none), from the packet
+ * (and for ACTION the slot, whose contents check_packet verified at its REG_WRITE). */
+static unsigned written_window(const dxl_servo_t *before, const dxl_packet_t *p, unsigned *start) {
+  const uint8_t *slice;
+  uint8_t len;
+  switch (p->instruction) {
+  case DXL_INST_WRITE:
+    *start = p->params[0];
+    return p->param_count - 1u;
+  case DXL_INST_ACTION:
+    *start = before->reg_start;
+    return before->reg_len;
+  case DXL_INST_SYNC_WRITE:
+    if (own_sync_slice(p, before->table[CT_ADDR_ID], &slice, &len)) {
+      *start = p->params[0];
+      return len;
+    }
+    return 0;
+  default:
+    return 0;
+  }
+}
+
+/* The wheel-mode goal flag after a packet took the table from before to after. */
+static void update_wheel_goal(world_t *w, const uint8_t *before, const uint8_t *after, unsigned start,
+                              unsigned len) {
+  if (!wheel_mode(after)) {
+    w->wheel_goal_written = false;
+  } else if (len != 0 && start <= CT_ADDR_GOAL_POSITION + 1u && start + len > CT_ADDR_GOAL_POSITION) {
+    w->wheel_goal_written = true;
+  } else if (!wheel_mode(before)) {
+    w->wheel_goal_written = false; /* entering wheel mode with an old goal does not raise it */
+  }
+}
+
+static void check_angle_condition(const world_t *w, const char *when) {
+  const bool expected = angle_condition(w, w->servo.table);
+  if (((dxl_servo_conditions(&w->servo) & DXL_ERR_ANGLE_LIMIT) != 0) != expected) {
+    fail("%s: the core's Angle Limit condition is %s, the policy's %s", when, expected ? "off" : "on",
+         expected ? "on" : "off");
+  }
+}
+
 /* main.c on_packet(), with early != NULL: the sniff's path, whose response was prepared from
  * the candidate. */
 static void handle_packet(world_t *w, const dxl_packet_t *p, const dxl_response_t *early) {
@@ -556,8 +618,24 @@ static void handle_packet(world_t *w, const dxl_packet_t *p, const dxl_response_
   }
   dxl_servo_commit(&w->servo, &r);
   dxl_after_commit(&w->servo, r.after, w);
+  if (r.events == 0 && (p->id == before.table[CT_ADDR_ID] || p->id == DXL_ID_BROADCAST)) {
+    unsigned start = 0;
+    const unsigned len = written_window(&before, p, &start);
+    update_wheel_goal(w, before.table, w->servo.table, start, len);
+  }
+  /* The reply's Angle Limit bit: the condition as the packet leaves the table (before what
+   * follows the reply, RESET's defaults). */
+  if (r.length >= 6 && ((r.bytes[DXL_STATUS_ERROR_OFFSET] & DXL_ERR_ANGLE_LIMIT) != 0) !=
+                           angle_condition(w, w->servo.table)) {
+    fail("packet ID %u instruction 0x%02X: reply error 0x%02X, but the Angle Limit condition is %s", p->id,
+         p->instruction, r.bytes[DXL_STATUS_ERROR_OFFSET], angle_condition(w, w->servo.table) ? "on" : "off");
+  }
   dxl_after_reply(&w->servo, early != NULL ? 0u : r.after, w); /* the reply has left (or none) */
+  if (r.after & DXL_AFTER_FACTORY_RESET) {
+    w->wheel_goal_written = false;
+  }
   check_packet(w, &before, persists_before, p, &r, before.pending_events);
+  check_angle_condition(w, "after a packet");
   if (w->persists != persists_before || memcmp(before.table, w->servo.table, CT_EEPROM_SIZE) != 0) {
     check_eeprom_idle(w, "after a packet"); /* else as it was before the packet */
   }
@@ -580,7 +658,8 @@ static void handle_bad_checksum(world_t *w, const dxl_packet_t *p) {
   if (r.length != 0) {
     check_status_packet(&r, old_id, "checksum error reply");
     const uint8_t error = r.bytes[DXL_STATUS_ERROR_OFFSET];
-    if ((error & DXL_ERR_EVENTS) != DXL_ERR_CHECKSUM || r.length != 6) {
+    if ((error & DXL_ERR_EVENTS) != DXL_ERR_CHECKSUM || r.length != 6 ||
+        ((error & DXL_ERR_ANGLE_LIMIT) != 0) != angle_condition(w, before.table)) {
       fail("checksum error reply: error 0x%02X, %u bytes", error, r.length);
     }
   }
@@ -711,6 +790,7 @@ static void power_up(world_t *w) {
   w->have_stored = stored != NULL;
   w->have_in_flight = false;
   dxl_servo_power_up(&w->servo, stored, w->sensors.position_counts);
+  w->wheel_goal_written = false;
   if (stored == NULL) {
     dxl_after_port_persist(w, w->servo.table); /* main.c: factory defaults, written back */
   }
@@ -719,6 +799,7 @@ static void power_up(world_t *w) {
   ref_finder_init(&w->ref);
   dxl_control_init(&w->control);
   check_ranges(w->servo.table, "after power-up");
+  check_angle_condition(w, "after power-up");
   check_eeprom_idle(w, "after power-up");
 }
 
