@@ -33,6 +33,9 @@
  *   - ranges: every writable item inside its range (ct_items.h; Moving Speed up to 2047 in
  *     wheel mode) after every packet and every control tick; a tick changes only the Present
  *     items, Moving, and Torque Enable / Torque Limit to 0 (shutdown);
+ *   - alarms ("Alarms"): after a tick the voltage and overheating conditions are those of the
+ *     sensors against the limits; torque goes off exactly when an alarm selected by Alarm
+ *     Shutdown holds (profile ax12a: Torque Limit 0 too); no drive with torque off;
  *   - the early prepare: the reply prepared from the candidate is the one the complete packet
  *     gives, and a streamable packet's reply obeys dxl_servo.h "Streamed replies";
  *   - EEPROM: whenever no store is under way, the stored settings (repaired as at power-up)
@@ -743,12 +746,36 @@ static void control_tick(world_t *w) {
   memcpy(before, w->servo.table, CT_SIZE);
   const uint8_t reg_len = w->servo.reg_len;
   const bool goal_flag = w->servo.goal_written_in_wheel_mode;
+  const uint8_t pending = w->servo.pending_events;
   bool led;
   const int16_t drive = dxl_control_tick(&w->control, &w->servo, &w->sensors, &led);
   if (drive < -DXL_DRIVE_MAX || drive > DXL_DRIVE_MAX) {
     fail("control tick: drive %d", drive);
   }
   const uint8_t *t = w->servo.table;
+  /* docs/policy.md "Alarms": the voltage and temperature conditions from the limits; Alarm
+   * Shutdown turns torque off when an alarm it selects holds (a condition, or an event since
+   * the last tick), and nothing else does. */
+  const dxl_sensors_t *in = &w->sensors;
+  const bool voltage = in->voltage_dv < t[CT_ADDR_LOWEST_LIMIT_VOLTAGE] || in->voltage_dv > t[CT_ADDR_HIGHEST_LIMIT_VOLTAGE];
+  const bool heat = in->temperature_c > t[CT_ADDR_HIGHEST_LIMIT_TEMP];
+  const uint8_t conditions = dxl_servo_conditions(&w->servo);
+  if (((conditions & DXL_ERR_VOLTAGE) != 0) != voltage || ((conditions & DXL_ERR_OVERHEATING) != 0) != heat) {
+    fail("control tick: conditions 0x%02X at %u dV (limits %u..%u), %u degC (limit %u)", conditions, in->voltage_dv,
+         t[CT_ADDR_LOWEST_LIMIT_VOLTAGE], t[CT_ADDR_HIGHEST_LIMIT_VOLTAGE], in->temperature_c,
+         t[CT_ADDR_HIGHEST_LIMIT_TEMP]);
+  }
+  const bool shut_down = before[CT_ADDR_TORQUE_ENABLE] != 0 && ((conditions | pending) & t[CT_ADDR_ALARM_SHUTDOWN]) != 0;
+  if ((before[CT_ADDR_TORQUE_ENABLE] != 0 && t[CT_ADDR_TORQUE_ENABLE] == 0) != shut_down) {
+    fail("control tick: Torque Enable %u -> %u with alarms 0x%02X, Alarm Shutdown 0x%02X", before[CT_ADDR_TORQUE_ENABLE],
+         t[CT_ADDR_TORQUE_ENABLE], conditions | pending, t[CT_ADDR_ALARM_SHUTDOWN]);
+  }
+  if (t[CT_ADDR_TORQUE_ENABLE] == 0 && drive != 0) {
+    fail("control tick: drive %d with torque off", drive);
+  }
+  if (DXL_PROFILE == DXL_PROFILE_AX12A && shut_down && ct_get_u16(t, CT_ADDR_TORQUE_LIMIT) != 0) {
+    fail("control tick: shut down (profile ax12a) with Torque Limit %u", ct_get_u16(t, CT_ADDR_TORQUE_LIMIT));
+  }
   for (uint8_t a = 0; a < CT_PRESENT_FIRST; a++) {
     if (t[a] != before[a]) {
       const bool shutdown = (a == CT_ADDR_TORQUE_ENABLE || (DXL_PROFILE == DXL_PROFILE_AX12A &&
