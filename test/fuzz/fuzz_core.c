@@ -132,6 +132,7 @@ typedef struct {
    * wheel mode, whether a Goal Position was written since wheel mode began. */
   bool wheel_goal_written;
   uint8_t uart_baud; /* the last dxl_after_port_set_baud */
+  unsigned reply_ms; /* how long a reply takes on the wire (PACKET mode bit 5), 0: no time */
 } world_t;
 
 static world_t world;
@@ -232,11 +233,30 @@ static void check_eeprom_idle(const world_t *w, const char *when) {
   }
 }
 
-static bool servo_equal(const dxl_servo_t *a, const dxl_servo_t *b, bool compare_events) {
-  return memcmp(a->table, b->table, CT_SIZE) == 0 && a->reg_start == b->reg_start && a->reg_len == b->reg_len &&
+/* Whether a control tick may have changed address a (control_tick() checks how). */
+static bool tick_may_change(uint8_t a) {
+  return a == CT_ADDR_TORQUE_ENABLE || a == CT_ADDR_TORQUE_LIMIT || a == CT_ADDR_TORQUE_LIMIT + 1 ||
+         (a >= CT_PRESENT_FIRST && a <= CT_ADDR_PRESENT_TEMPERATURE) || a == CT_ADDR_MOVING;
+}
+
+/* Tables equal, but where control ticks ran in between (ticked) at the addresses they write. */
+static bool tables_equal(const uint8_t *a, const uint8_t *b, bool ticked) {
+  for (uint8_t addr = 0; addr < CT_SIZE; addr++) {
+    if (a[addr] != b[addr] && !(ticked && tick_may_change(addr))) {
+      return false;
+    }
+  }
+  return true;
+}
+
+/* Servos equal; with ticked, control ticks ran in between: the addresses they write, the held
+ * conditions and the pending events (which they take) are left out. */
+static bool servo_equal(const dxl_servo_t *a, const dxl_servo_t *b, bool compare_events, bool ticked) {
+  return tables_equal(a->table, b->table, ticked) && a->reg_start == b->reg_start && a->reg_len == b->reg_len &&
          memcmp(a->reg_data, b->reg_data, a->reg_len <= DXL_REG_SLOT_BYTES ? a->reg_len : DXL_REG_SLOT_BYTES) == 0 &&
-         a->goal_written_in_wheel_mode == b->goal_written_in_wheel_mode && a->held_conditions == b->held_conditions &&
-         (!compare_events || a->pending_events == b->pending_events);
+         a->goal_written_in_wheel_mode == b->goal_written_in_wheel_mode &&
+         (ticked || a->held_conditions == b->held_conditions) &&
+         (ticked || !compare_events || a->pending_events == b->pending_events);
 }
 
 static void describe_table_difference(const uint8_t *before, const uint8_t *after, char *out, size_t size) {
@@ -365,7 +385,7 @@ static void check_status_packet(const dxl_response_t *r, uint8_t id, const char 
 /* Checks a packet's reply and effects. before: the servo before it; persists_before: the
  * store count before it. */
 static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned persists_before,
-                         const dxl_packet_t *p, const dxl_response_t *r, uint8_t pending_before) {
+                         const dxl_packet_t *p, const dxl_response_t *r, uint8_t pending_before, bool ticked) {
   const dxl_servo_t *after = &w->servo;
   const uint8_t old_id = before->table[CT_ADDR_ID];
   const bool addressed = p->id == old_id || p->id == DXL_ID_BROADCAST;
@@ -386,7 +406,7 @@ static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned p
     fail("%s: dxl_servo_answers disagrees with the reply", what);
   }
   if (!addressed) {
-    if (!servo_equal(before, after, true) || stored || r->after != 0 || r->events != 0) {
+    if (!servo_equal(before, after, true, false) || stored || r->after != 0 || r->events != 0) {
       describe_table_difference(before->table, after->table, diff, sizeof diff);
       fail("%s: another servo's packet changed something (%s)%s", what, diff, stored ? ", stored" : "");
     }
@@ -432,11 +452,11 @@ static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned p
 
   /* Errors change nothing (docs/policy.md "Instructions and their errors"). */
   if (r->events != 0) {
-    if (!servo_equal(before, after, false) || stored) {
+    if (!servo_equal(before, after, false, ticked) || stored) {
       describe_table_difference(before->table, after->table, diff, sizeof diff);
       fail("%s: error 0x%02X but something changed (%s)%s", what, r->events, diff, stored ? ", stored" : "");
     }
-    if (after->pending_events != (uint8_t)(pending_before | r->events)) {
+    if (!ticked && after->pending_events != (uint8_t)(pending_before | r->events)) {
       fail("%s: pending events 0x%02X after 0x%02X with events 0x%02X", what, after->pending_events,
            pending_before, r->events);
     }
@@ -485,7 +505,8 @@ static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned p
     break;
   case DXL_INST_RESET: {
     dxl_servo_t fresh;
-    dxl_servo_power_up(&fresh, NULL, ct_get_u16(before->table, CT_ADDR_PRESENT_POSITION));
+    /* the present position as the reset found it (ticks may have run during the reply) */
+    dxl_servo_power_up(&fresh, NULL, ct_get_u16(after->table, CT_ADDR_PRESENT_POSITION));
     memcpy(expected, fresh.table, CT_SIZE);
     expect_store = true;
     break;
@@ -502,14 +523,14 @@ static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned p
   default: /* PING, READ */
     break;
   }
-  if (memcmp(expected, after->table, CT_SIZE) != 0) {
+  if (!tables_equal(expected, after->table, ticked)) {
     describe_table_difference(expected, after->table, diff, sizeof diff);
     fail("%s: the table is not what the instruction writes (expected -> found at %s)", what, diff);
   }
   if (stored != expect_store) {
     fail("%s: %s", what, stored ? "stored the settings without writing the EEPROM area" : "EEPROM area written, not stored");
   }
-  if (p->instruction != DXL_INST_RESET && after->pending_events != pending_before) {
+  if (!ticked && p->instruction != DXL_INST_RESET && after->pending_events != pending_before) {
     fail("%s: pending events changed without an error", what);
   }
 }
@@ -543,6 +564,8 @@ static void after_store_step(world_t *w) {
     w->have_in_flight = false;
   }
 }
+
+static void control_tick(world_t *w);
 
 static bool wheel_mode(const uint8_t *table) {
   return ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT) == 0 && ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT) == 0;
@@ -633,11 +656,26 @@ static void handle_packet(world_t *w, const dxl_packet_t *p, const dxl_response_
     fail("packet ID %u instruction 0x%02X: reply error 0x%02X, but the Angle Limit condition is %s", p->id,
          p->instruction, r.bytes[DXL_STATUS_ERROR_OFFSET], angle_condition(w, w->servo.table) ? "on" : "off");
   }
+  bool ticked = false;
+  if (r.length != 0 && early == NULL && w->reply_ms != 0) {
+    /* The reply is on the wire for reply_ms: the main loop runs control ticks and EEPROM
+     * writes (one every 4 ms) meanwhile and takes no packet; what follows the reply waits for
+     * its end (main.c service_reply). */
+    for (unsigned i = 0; i < w->reply_ms; i++) {
+      w->now_ms++;
+      control_tick(w);
+      if ((i & 3u) == 3u) {
+        (void)eeprom_model_service(&w->eeprom, NULL);
+        after_store_step(w);
+      }
+    }
+    ticked = true;
+  }
   dxl_after_reply(&w->servo, early != NULL ? 0u : r.after, w); /* the reply has left (or none) */
   if (r.after & DXL_AFTER_FACTORY_RESET) {
     w->wheel_goal_written = false;
   }
-  check_packet(w, &before, persists_before, p, &r, before.pending_events);
+  check_packet(w, &before, persists_before, p, &r, before.pending_events, ticked);
   check_angle_condition(w, "after a packet");
   if (w->persists != persists_before || memcmp(before.table, w->servo.table, CT_EEPROM_SIZE) != 0) {
     check_eeprom_idle(w, "after a packet"); /* else as it was before the packet */
@@ -666,7 +704,7 @@ static void handle_bad_checksum(world_t *w, const dxl_packet_t *p) {
       fail("checksum error reply: error 0x%02X, %u bytes", error, r.length);
     }
   }
-  if (!servo_equal(&before, &w->servo, false) || w->persists != persists_before || r.after != 0 ||
+  if (!servo_equal(&before, &w->servo, false, false) || w->persists != persists_before || r.after != 0 ||
       r.action != DXL_ACTION_NONE) {
     fail("a bad checksum (ID %u) changed something", p->id);
   }
@@ -1032,6 +1070,7 @@ static void op_packet(world_t *w, input_t *in) {
   }
   bytes[count++] = checksum;
 
+  w->reply_ms = (mode & FUZZ_MODE_REPLY_TIME) ? take(in) : 0u;
   switch (mode & 3u) {
   case FUZZ_DELIVER_BYTES:
     for (size_t i = 0; i < count; i++) {
@@ -1058,6 +1097,7 @@ static void op_packet(world_t *w, input_t *in) {
     }
     break;
   }
+  w->reply_ms = 0;
 }
 
 static void op_ticks(world_t *w, input_t *in) {

@@ -46,7 +46,11 @@
  *   others      none
  * mode: bits 0-1 delivery (0 bytes, 1 one batch, 2 two batches with a wait of the next byte
  * in ms between, at the split given by the byte after it, 3 early prepare); bit 2 bad
- * checksum (xor with the next byte | 1); bits 3-4 extra leading 0xFF bytes. */
+ * checksum (xor with the next byte | 1); bits 3-4 extra leading 0xFF bytes; bit 5 replies take
+ * time: the next byte is how many ms pass between a reply's start and its end (control ticks
+ * and EEPROM writes run, dxl_after_reply waits). A PACKET's bytes in order: sel, mode, the ID
+ * (id GIVEN), the instruction (GIVEN), the parameters, the checksum xor (bit 2), the reply
+ * time (bit 5), the split's wait and place (delivery 2). */
 #ifndef FUZZ_OPS_H
 #define FUZZ_OPS_H
 
@@ -95,6 +99,7 @@ enum fuzz_op {
 #define FUZZ_DELIVER_EARLY 3u
 #define FUZZ_MODE_BAD_CHECKSUM 0x04u
 #define FUZZ_MODE_EXTRA_FF(n) ((n) << 3)
+#define FUZZ_MODE_REPLY_TIME 0x20u
 
 #define FUZZ_WRITE_L_MOD 12u
 #define FUZZ_SYNC_L_MOD 8u

@@ -330,5 +330,18 @@ int main(int argc, char **argv) {
   bytes(2, 40, 3);
   save("clock_wrap");
 
+  start_one(4);
+  write1(W, OWN, BATCH, 24, 1);
+  write1(W, OWN, BATCH, 18, 0x40);
+  /* RESET whose reply takes 30 ms: ticks (a 95 degC overheat) and EEPROM writes meanwhile */
+  ticks(1, 0, 512, 0, 96, 95);
+  bytes(4, FUZZ_OP_PACKET, FUZZ_SEL(OWN, FUZZ_INST_RESET), BATCH | FUZZ_MODE_REPLY_TIME, 30);
+  /* an unknown instruction, Alarm Shutdown 0x40: the event shuts torque down during its reply */
+  write1(W, OWN, BATCH, 24, 1);
+  bytes(5, FUZZ_OP_PACKET, FUZZ_SEL(OWN, FUZZ_INST_GIVEN), BATCH | FUZZ_MODE_REPLY_TIME, 0x09, 5);
+  write1(W, OWN, BATCH | FUZZ_MODE_REPLY_TIME, 4, 3);
+  b(12);
+  save("reply_time");
+
   return 0;
 }
