@@ -904,12 +904,25 @@ static void start(world_t *w, input_t *in) {
     dxl_image_slot_build(&image[dxl_image_slot_offset(1)], b, (uint8_t)(sequence + take(in)));
     break;
   }
-  default: { /* FUZZ_START_TORN_SLOT */
+  default: { /* FUZZ_START_TORN_SLOT: what a store cut before this power-up leaves */
     take_area(in, a);
-    uint8_t *slot1 = &image[dxl_image_slot_offset(1)];
-    dxl_image_slot_build(slot1, a, take(in));
-    memcpy(image, slot1, DXL_IMAGE_SLOT_BYTES);
-    image[take(in) % DXL_IMAGE_SLOT_BYTES] ^= (uint8_t)(take(in) | 1u);
+    take_area(in, b);
+    const uint8_t sequence = take(in);
+    const unsigned writes = take(in) % (DXL_IMAGE_SLOT_BYTES + 1u);
+    const uint8_t torn = take(in);
+    dxl_servo_t factory;
+    dxl_servo_power_up(&factory, NULL, 0);
+    eeprom_model_t before_cut;
+    memset(before_cut.image, 0xFF, DXL_IMAGE_BYTES);
+    dxl_image_slot_build(before_cut.image, factory.table, (uint8_t)(sequence - 1u));
+    dxl_image_slot_build(&before_cut.image[dxl_image_slot_offset(1)], a, sequence);
+    (void)eeprom_model_boot(&before_cut);
+    eeprom_model_persist(&before_cut, b);
+    for (unsigned i = 0; i < writes; i++) {
+      (void)eeprom_model_service(&before_cut, NULL);
+    }
+    (void)eeprom_model_service(&before_cut, &torn);
+    memcpy(image, before_cut.image, DXL_IMAGE_BYTES);
     break;
   }
   }

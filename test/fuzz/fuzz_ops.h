@@ -8,8 +8,12 @@
  *   BLANK        -                      erased EEPROM: factory defaults, stored at power-up
  *   ONE_SLOT     area                   slot 0 only (dxl_image_build)
  *   TWO_SLOTS    area area seq delta    slot 0 with seq, slot 1 with seq + delta
- *   TORN_SLOT    area index value       slot 1 valid, slot 0 slot 1's image with one byte
- *                                       changed: a cut left it half written
+ *   TORN_SLOT    area area seq n value  slot 0 factory settings at seq - 1, slot 1 the first
+ *                                       area at seq; a store of the second area into slot 0
+ *                                       (nvm.c's writer) cut after n % 28 writes, the next
+ *                                       write torn to value: the states a cut leaves (a slot
+ *                                       torn any other way, with its sequence number already
+ *                                       the next one, is not one: docs/testing.md)
  *   area = ID, Baud Rate, Return Delay Time, Status Return Level, CW Angle Limit (2 bytes),
  *          CCW Angle Limit (2), Max Torque (2), Alarm LED, Alarm Shutdown: raw, so stored
  *          values out of range occur (power-up repairs them)

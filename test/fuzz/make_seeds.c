@@ -282,7 +282,8 @@ int main(int argc, char **argv) {
 
   b(FUZZ_START_TORN_SLOT);
   factory_area(6);
-  bytes(3, 20, 5, 0x10);
+  factory_area(7);
+  bytes(3, 20, 5, 0x10); /* slot 1 at sequence 20; the store of ID 7 cut after 5 writes */
   b16(512);
   write1(W, OWN, BATCH, 25, 1);
   write1(W, OWN, BATCH, 13, 200);
