@@ -132,6 +132,7 @@ typedef struct {
    * wheel mode, whether a Goal Position was written since wheel mode began. */
   bool wheel_goal_written;
   uint8_t uart_baud; /* the last dxl_after_port_set_baud */
+  unsigned baud_sets; /* dxl_after_port_set_baud calls */
   unsigned reply_ms; /* how long a reply takes on the wire (PACKET mode bit 5), 0: no time */
 } world_t;
 
@@ -152,6 +153,7 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
     fail("set_baud(%u) while the Baud Rate register holds %u", baud_register, w->servo.table[CT_ADDR_BAUD_RATE]);
   }
   w->uart_baud = baud_register;
+  w->baud_sets++;
 }
 
 /* ---------------------------------------------------------------------------------------
@@ -382,14 +384,18 @@ static void check_status_packet(const dxl_response_t *r, uint8_t id, const char 
   }
 }
 
+static unsigned written_window(const dxl_servo_t *before, const dxl_packet_t *p, unsigned *start);
+
 /* Checks a packet's reply and effects. before: the servo before it; persists_before: the
  * store count before it. */
 static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned persists_before,
-                         const dxl_packet_t *p, const dxl_response_t *r, uint8_t pending_before, bool ticked) {
+                         unsigned baud_sets_before, const dxl_packet_t *p, const dxl_response_t *r,
+                         uint8_t pending_before, bool ticked) {
   const dxl_servo_t *after = &w->servo;
   const uint8_t old_id = before->table[CT_ADDR_ID];
   const bool addressed = p->id == old_id || p->id == DXL_ID_BROADCAST;
   const bool stored = w->persists != persists_before;
+  const bool baud_set = w->baud_sets != baud_sets_before;
   char diff[96];
   char what[96];
   snprintf(what, sizeof what, "packet ID %u instruction 0x%02X with %u parameters", p->id, p->instruction,
@@ -406,7 +412,7 @@ static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned p
     fail("%s: dxl_servo_answers disagrees with the reply", what);
   }
   if (!addressed) {
-    if (!servo_equal(before, after, true, false) || stored || r->after != 0 || r->events != 0) {
+    if (!servo_equal(before, after, true, false) || stored || baud_set || r->after != 0 || r->events != 0) {
       describe_table_difference(before->table, after->table, diff, sizeof diff);
       fail("%s: another servo's packet changed something (%s)%s", what, diff, stored ? ", stored" : "");
     }
@@ -452,7 +458,7 @@ static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned p
 
   /* Errors change nothing (docs/policy.md "Instructions and their errors"). */
   if (r->events != 0) {
-    if (!servo_equal(before, after, false, ticked) || stored) {
+    if (!servo_equal(before, after, false, ticked) || stored || baud_set) {
       describe_table_difference(before->table, after->table, diff, sizeof diff);
       fail("%s: error 0x%02X but something changed (%s)%s", what, r->events, diff, stored ? ", stored" : "");
     }
@@ -481,10 +487,14 @@ static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned p
     }
   }
 
-  /* What the instruction does. */
+  /* What the instruction does; the baud is set again after a write of address 4 or RESET,
+   * and only then ("Replies": after the reply). */
   uint8_t expected[CT_SIZE];
   memcpy(expected, before->table, CT_SIZE);
   bool expect_store = false;
+  unsigned window_start = 0;
+  const unsigned window_len = written_window(before, p, &window_start);
+  bool expect_baud = window_len != 0 && window_start <= CT_ADDR_BAUD_RATE && window_start + window_len > CT_ADDR_BAUD_RATE;
   switch (p->instruction) {
   case DXL_INST_WRITE:
     apply_window(expected, p->params[0], &p->params[1], (uint8_t)(p->param_count - 1u));
@@ -509,6 +519,7 @@ static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned p
     dxl_servo_power_up(&fresh, NULL, ct_get_u16(after->table, CT_ADDR_PRESENT_POSITION));
     memcpy(expected, fresh.table, CT_SIZE);
     expect_store = true;
+    expect_baud = true;
     break;
   }
   case DXL_INST_SYNC_WRITE: {
@@ -526,6 +537,9 @@ static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned p
   if (!tables_equal(expected, after->table, ticked)) {
     describe_table_difference(expected, after->table, diff, sizeof diff);
     fail("%s: the table is not what the instruction writes (expected -> found at %s)", what, diff);
+  }
+  if (baud_set != expect_baud) {
+    fail("%s: %s", what, baud_set ? "the baud was set again without a write of it" : "Baud Rate written, not applied");
   }
   if (stored != expect_store) {
     fail("%s: %s", what, stored ? "stored the settings without writing the EEPROM area" : "EEPROM area written, not stored");
@@ -630,6 +644,7 @@ static void handle_packet(world_t *w, const dxl_packet_t *p, const dxl_response_
   dxl_servo_t before;
   memcpy(&before, &w->servo, sizeof before);
   const unsigned persists_before = w->persists;
+  const unsigned baud_sets_before = w->baud_sets;
   dxl_response_t r;
   dxl_servo_prepare(&w->servo, p, &r);
   if (early != NULL) {
@@ -675,7 +690,7 @@ static void handle_packet(world_t *w, const dxl_packet_t *p, const dxl_response_
   if (r.after & DXL_AFTER_FACTORY_RESET) {
     w->wheel_goal_written = false;
   }
-  check_packet(w, &before, persists_before, p, &r, before.pending_events, ticked);
+  check_packet(w, &before, persists_before, baud_sets_before, p, &r, before.pending_events, ticked);
   check_angle_condition(w, "after a packet");
   if (w->persists != persists_before || memcmp(before.table, w->servo.table, CT_EEPROM_SIZE) != 0) {
     check_eeprom_idle(w, "after a packet"); /* else as it was before the packet */
@@ -687,6 +702,7 @@ static void handle_bad_checksum(world_t *w, const dxl_packet_t *p) {
   dxl_servo_t before;
   memcpy(&before, &w->servo, sizeof before);
   const unsigned persists_before = w->persists;
+  const unsigned baud_sets_before = w->baud_sets;
   dxl_response_t r;
   dxl_servo_reject_checksum(&w->servo, p, &r);
   const uint8_t old_id = before.table[CT_ADDR_ID];
@@ -704,7 +720,8 @@ static void handle_bad_checksum(world_t *w, const dxl_packet_t *p) {
       fail("checksum error reply: error 0x%02X, %u bytes", error, r.length);
     }
   }
-  if (!servo_equal(&before, &w->servo, false, false) || w->persists != persists_before || r.after != 0 ||
+  if (!servo_equal(&before, &w->servo, false, false) || w->persists != persists_before ||
+      w->baud_sets != baud_sets_before || r.after != 0 ||
       r.action != DXL_ACTION_NONE) {
     fail("a bad checksum (ID %u) changed something", p->id);
   }
