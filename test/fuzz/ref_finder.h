@@ -11,8 +11,9 @@
  *   - while such a start is still short of bytes and no gap has ended the bytes held, wait;
  *   - anything else: the front byte goes, and the front is looked at again.
  * A gap is a push or a poll at a time more than 100 ms (16-bit milliseconds, wrapping, as the
- * finder's contract says) after the last byte pushed. No size limit of its own: the candidate
- * never holds more than 259 bytes by the rules above. */
+ * finder's contract says) after the last byte pushed. It holds up to REF_FINDER_CAPACITY bytes,
+ * far more than the 259 a candidate can span: the harness takes the results after every
+ * batch, as the firmware does. */
 #ifndef REF_FINDER_H
 #define REF_FINDER_H
 
