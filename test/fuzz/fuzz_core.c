@@ -6,7 +6,8 @@
  * Driven as main.c drives it: bytes into the finder one at a time or in batches
  * (dxl_finder_push_slot/pushed, as far as it has room, results taken between), every result
  * taken until DXL_FIND_NONE; a good packet prepared, committed, dxl_after_commit, then
- * dxl_after_reply (the reply is taken as sent at once); a bad checksum through
+ * dxl_after_reply at once or after the reply's time on the wire, while control ticks and
+ * EEPROM writes run (main.c service_reply); a bad checksum through
  * dxl_servo_reject_checksum; the sniff's path (a streamable packet to this servo while the
  * finder holds nothing: all but the checksum pushed, the candidate prepared, the checksum
  * pushed, the early response committed); gap polls and 1 ms control ticks; the EEPROM
@@ -21,14 +22,14 @@
  *     with a correct checksum, LENGTH 2, or 2 + n for a READ of n bytes, whose data are the
  *     table's; its event bits are the packet's, its condition bits those held (the Angle
  *     Limit condition kept by the harness: "Goal Position and the angle limits"); the Return
- *     Delay Time is the old one;
- *     dxl_servo_answers() and dxl_servo_ping_reply() agree with it;
+ *     Delay Time is the old one; dxl_servo_answers() and dxl_servo_ping_reply() agree with it;
  *   - another servo's packet (or a bad checksum of one, or a broadcast one) changes nothing
  *     and stores nothing;
  *   - a packet with an event error (range, instruction, checksum: "Instructions and their
  *     errors") changes nothing but the pending events, and stores nothing;
  *   - what each instruction does when it succeeds: WRITE, SYNC_WRITE (this servo's first
- *     slice, when the slices fit), REG_WRITE, ACTION and RESET change exactly their bytes;
+ *     slice, when the slices fit), REG_WRITE, ACTION and RESET change exactly their bytes; the
+ *     EEPROM area is stored, and the baud set again, exactly when written;
  *   - Lock: while set, a packet changes no locked address and stores nothing ("Lock");
  *   - ranges: every writable item inside its range (ct_items.h; Moving Speed up to 2047 in
  *     wheel mode) after every packet and every control tick; a tick changes only the Present
