@@ -118,8 +118,29 @@ def sdk_port(device):
     return port, PacketHandler(1.0)
 
 
-def sdk_ping_median_ms(emu, firmware_dir, pings):
-    serve = Serve(emu, firmware_dir, "1")
+# The USB adapters the SDK loop runs behind (`serve --adapter`), and the real setup each row
+# matches (docs/emulator.md "The USB adapter").
+ADAPTERS = [
+    ("u2d2", "U2D2 with its latency timer at 1 ms, as ROBOTIS advises (serve's default)"),
+    ("u2d2:16", "U2D2 as Linux sets it up (latency timer 16 ms)"),
+    ("usb2dynamixel", "USB2Dynamixel (FT232R) at 1 ms"),
+    ("usb2dynamixel:16", "USB2Dynamixel as Linux sets it up (16 ms)"),
+    ("wire", "no adapter: bytes as they leave the wire (no real setup)"),
+]
+DEFAULT_ADAPTER = "u2d2"
+BIT_US_1M = 1.0  # one bit at 1 Mbps
+BYTE_US_1M = 10 * BIT_US_1M  # start, 8 data, stop
+
+
+def sdk_loop_floor_us(servos, rdt_us):
+    """The wire-time floor of one SDK loop at 1 Mbps: a SYNC_WRITE of 2-byte goals (8 + 3 N
+    bytes), then per servo a 2-byte READ (8 bytes) and its reply (8 bytes) after the Return
+    Delay Time. Nothing faster is possible on the bus, whatever the adapter and the client."""
+    return (8 + 3 * servos + 16 * servos) * BYTE_US_1M + servos * rdt_us
+
+
+def sdk_ping_median_ms(emu, firmware_dir, pings, adapter=DEFAULT_ADAPTER):
+    serve = Serve(emu, firmware_dir, "1", ("--adapter", adapter))
     try:
         port, packet = sdk_port(serve.device)
         times = []
@@ -135,14 +156,16 @@ def sdk_ping_median_ms(emu, firmware_dir, pings):
     return statistics.median(times)
 
 
-def sdk_client_loop(emu, firmware_dir, servos, seconds):
+def sdk_client_loop(emu, firmware_dir, servos, seconds, adapter=DEFAULT_ADAPTER):
     """One SYNC_WRITE of goal positions plus a READ of Present Position from every servo,
-    repeated through the pty in real time; then every servo's goal is checked."""
+    repeated through the pty in real time behind `adapter`; then every servo's goal is checked.
+    Also returns the servos' Return Delay Time (for the wire-time floor)."""
     from dynamixel_sdk import GroupSyncWrite
     import ax12_table as T
-    serve = Serve(emu, firmware_dir, "1-%d" % servos)
+    serve = Serve(emu, firmware_dir, "1-%d" % servos, ("--adapter", adapter))
     try:
         port, packet = sdk_port(serve.device)
+        rdt, _, _ = packet.read1ByteTxRx(port, 1, T.RETURN_DELAY_TIME)
         for i in range(1, servos + 1):
             packet.write1ByteTxRx(port, i, T.TORQUE_ENABLE, 1)
         loops, failures, goals = 0, 0, {}
@@ -154,19 +177,66 @@ def sdk_client_loop(emu, firmware_dir, servos, seconds):
                 sync.addParam(i, [goals[i] & 0xFF, goals[i] >> 8])
             sync.txPacket()
             for i in range(1, servos + 1):
-                _, result, _ = packet.read2ByteTxRx(port, i, T.PRESENT_POSITION)
+                try:
+                    _, result, _ = packet.read2ByteTxRx(port, i, T.PRESENT_POSITION)
+                except IndexError:  # DynamixelSDK 4.1.0 takes a late 6-byte status of that ID as the reply
+                    result = -1
                 failures += result != 0
             loops += 1
         elapsed = seconds
         time.sleep(1.5)  # let every servo arrive
         reached = 0
         for i in range(1, servos + 1):
-            position, result, _ = packet.read2ByteTxRx(port, i, T.PRESENT_POSITION)
+            try:
+                position, result, _ = packet.read2ByteTxRx(port, i, T.PRESENT_POSITION)
+            except IndexError:
+                position, result = 0, -1
             reached += result == 0 and abs(position - goals[i]) <= 4
         port.closePort()
     finally:
         stats = serve.stop()
-    return {"loops_per_s": loops / elapsed, "read_failures": failures, "servos_at_goal": reached, **stats}
+    return {"loops_per_s": loops / elapsed, "read_failures": failures, "servos_at_goal": reached,
+            "rdt_us": 2.0 * rdt, **stats}
+
+
+def sdk_loop_table(emu, fw, seconds, row, r):
+    """The SDK loop for 1, 18 and 30 servos behind every adapter kind, beside the wire-time
+    floor; returns the lines of a table (one row per adapter, loops/s)."""
+    sizes = (1, 18, 30)
+    lines = ["%-18s %10s  %10s  %10s  %s" % ("adapter", "1 servo", "18 servos", "30 servos", "setup it matches")]
+    rdt_us = None
+    for adapter, setup in ADAPTERS:
+        cells = []
+        for n in sizes:
+            loop = sdk_client_loop(emu, fw, n, seconds, adapter)
+            rdt_us = loop["rdt_us"]
+            key = "sdk_loop_%s_%d" % (re.sub(r"\W", "_", adapter), n)
+            row("SDK loop per adapter", "%s: %d servos" % (adapter, n), loop["loops_per_s"], "loops/s", "",
+                key + "_loops_per_s")
+            r[key + "_read_failures"] = loop["read_failures"]
+            r[key + "_speed"] = loop.get("speed", float("nan"))
+            if adapter == DEFAULT_ADAPTER:
+                row("real clients", "%d servos: SYNC_WRITE + %d READs (%s)" % (n, n, adapter), loop["loops_per_s"],
+                    "loops/s", "", "sdk_loop_%d_loops_per_s" % n)
+                row("real clients", "%d servos: real-time factor (throttled)" % n, loop.get("speed", float("nan")),
+                    "x real time", ">= 1", "sdk_loop_%d_speed" % n)
+                row("real clients", "%d servos: worst lag" % n, loop.get("worst_lag_ms", float("nan")), "ms", "",
+                    "sdk_loop_%d_worst_lag_ms" % n)
+                row("real clients", "%d servos: at goal after the loop" % n, loop["servos_at_goal"], "servos",
+                    "%d" % n, "sdk_loop_%d_servos_at_goal" % n)
+            cells.append("%10.1f%s" % (loop["loops_per_s"], "*" if loop["read_failures"] else " "))
+        lines.append("%-18s %s %s" % (adapter, "".join(cells), setup))
+    floors = []
+    for n in sizes:
+        floor = 1e6 / sdk_loop_floor_us(n, rdt_us)
+        r["sdk_loop_floor_%d_loops_per_s" % n] = floor
+        row("SDK loop per adapter", "wire-time floor at 1 Mbps, RDT %g us: %d servos" % (rdt_us, n), floor, "loops/s",
+            "", "sdk_loop_floor_%d_loops_per_s" % n)
+        floors.append("%10.1f " % floor)
+    lines.append("%-18s %s %s" % ("floor", "".join(floors),
+                                   "the bus alone at 1 Mbps: bytes x 10 us + Return Delay Time %g us per READ" % rdt_us))
+    lines.append("(* = some READs timed out)")
+    return lines
 
 
 def main():
@@ -174,6 +244,8 @@ def main():
     ap.add_argument("--build", required=True)
     ap.add_argument("--out", default="bench.json")
     ap.add_argument("--quick", action="store_true", help="fewer repetitions")
+    ap.add_argument("--sdk-loop-only", action="store_true",
+                    help="only the DynamixelSDK loop per USB adapter kind and its wire-time floor")
     a = ap.parse_args()
     ax12_build.use(a.build)
     fw = os.path.join(a.build, "firmware")
@@ -188,6 +260,15 @@ def main():
         rows.append((section, name, value, unit, goal))
         if key:
             r[key] = value
+
+    if a.sdk_loop_only:
+        lines = sdk_loop_table(emu, fw, 3 if a.quick else 6, row, r)
+        print("DynamixelSDK loop (SYNC_WRITE + a READ of every servo) through the pty, loops/s")
+        print("\n".join(lines))
+        with open(a.out, "w") as f:
+            json.dump(r, f, indent=1, sort_keys=True)
+        print("\nbench: wrote %s" % a.out)
+        return
 
     for mcu in ("atmega88", "atmega328p"):
         flash, ram = avr_size(os.path.join(fw, "ax12-ax12-%s.elf" % mcu))
@@ -266,17 +347,10 @@ def main():
         "instructions", "no higher than before", "host_instructions_per_servo_s_30")
 
     ping = sdk_ping_median_ms(emu, fw, 50 if a.quick else 200)
-    row("real clients", "DynamixelSDK ping, median", ping, "ms", "", "sdk_ping_median_ms")
-    for n in (1, 18, 30):
-        loop = sdk_client_loop(emu, fw, n, 3 if a.quick else 6)
-        row("real clients", "%d servos: SYNC_WRITE + %d READs" % (n, n), loop["loops_per_s"], "loops/s", "",
-            "sdk_loop_%d_loops_per_s" % n)
-        row("real clients", "%d servos: real-time factor (throttled)" % n, loop.get("speed", float("nan")),
-            "x real time", ">= 1", "sdk_loop_%d_speed" % n)
-        row("real clients", "%d servos: worst lag" % n, loop.get("worst_lag_ms", float("nan")), "ms", "",
-            "sdk_loop_%d_worst_lag_ms" % n)
-        row("real clients", "%d servos: at goal after the loop" % n, loop["servos_at_goal"], "servos", "%d" % n,
-            "sdk_loop_%d_servos_at_goal" % n)
+    row("real clients", "DynamixelSDK ping, median (%s)" % DEFAULT_ADAPTER, ping, "ms", "", "sdk_ping_median_ms")
+    ping = sdk_ping_median_ms(emu, fw, 50 if a.quick else 200, "wire")
+    row("real clients", "DynamixelSDK ping, median (wire)", ping, "ms", "", "sdk_ping_wire_median_ms")
+    loop_table = sdk_loop_table(emu, fw, 3 if a.quick else 6, row, r)
 
     report = os.path.join(os.path.dirname(os.path.abspath(__file__)), "model_report")
     if os.path.exists(report):
@@ -299,6 +373,8 @@ def main():
             section = sec
         text = ("%.3f" % value) if isinstance(value, float) else str(value)
         print("  %-58s %14s  %-12s %s" % (name, text, unit, goal))
+    print("\nDynamixelSDK loop (SYNC_WRITE + a READ of every servo) through the pty, loops/s")
+    print("\n".join(loop_table))
     with open(a.out, "w") as f:
         json.dump(r, f, indent=1, sort_keys=True)
     print("\nbench: wrote %s" % a.out)

@@ -4,6 +4,7 @@
  *
  * Execution contexts (docs/firmware.md): the ISRs in hal/ move bytes and start replies;
  * everything else runs here, in one loop that never blocks:
+ *   0. the watchdog, fed only when the tick and the receive path made progress (feed_watchdog);
  *   1. reply bookkeeping: after a reply's last byte, apply what follows it (factory reset,
  *      new baud);
  *   2. receive: the packet whose reply the RX ISR's sniff armed (prepare and publish it
@@ -82,6 +83,17 @@ static uint8_t quiet_seen;
 static uint8_t quiet_age_ms;
 /* Control ticks run since power-up (wrapping): a host reads it by symbol to count missed ticks. */
 volatile uint16_t control_tick_count;
+/* What the last watchdog feed saw (feed_watchdog). */
+static uint16_t fed_tick_count;
+static uint8_t fed_rx_tail;
+
+/* Test builds only (AX12_INJECT_HANG in firmware/CMakeLists.txt; docs/firmware.md "Watchdog"):
+ * from HANG_AFTER_TICKS control ticks after power-up on, the main loop, the control tick or
+ * the receive path stops. Never defined in a product build. */
+#define HANG_AFTER_TICKS 1500u
+#if defined(AX12_INJECT_HANG_MAIN) || defined(AX12_INJECT_HANG_TICK) || defined(AX12_INJECT_HANG_RX)
+static bool hang_due(void) { return control_tick_count >= HANG_AFTER_TICKS; }
+#endif
 static uint8_t boot_blink_ms; /* into the current phase */
 static uint8_t boot_blink_phase;
 
@@ -139,7 +151,7 @@ static bool link_free(void);
  * earlier packet is committed (the sniff decides with the table of the moment). */
 static __attribute__((noinline)) void sniff_start(void) {
   /* Callers: nothing armed. */
-  if (uart_sniff == UART_SNIFF_OFF && link_free() && finder.fill == finder.release) { /* usually on */
+  if (uart_sniff == UART_SNIFF_OFF && link_free() && dxl_finder_idle(&finder)) { /* usually on */
     uart_reply_load(response.bytes, DXL_PING_REPLY_BYTES, response.delay_us);
     uart_sniff_start(servo.table[CT_ADDR_ID], dxl_servo_stream_mask(&servo));
   }
@@ -212,6 +224,11 @@ static uint8_t push_waiting_bytes(uint8_t max_bytes) {
 }
 
 static void service_rx(void) {
+#ifdef AX12_INJECT_HANG_RX
+  if (hang_due()) {
+    return; /* the receive path takes no byte any more */
+  }
+#endif
   dxl_packet_t packet;
   for (;;) {
     adopt_sniffed();
@@ -377,6 +394,11 @@ static void service_tick(void) {
     adc_slot = (uint8_t)((adc_slot + 1u) % ADC_SEQUENCE_LENGTH);
     adc_start(adc_sequence[adc_slot]);
   }
+#ifdef AX12_INJECT_HANG_TICK
+  if (hang_due()) {
+    return; /* the control tick does not run any more */
+  }
+#endif
   const uint8_t conditions = control_tick(&servo, &sensors);
   __asm__ __volatile__("" ::: "memory"); /* the RX ISR may have armed meanwhile */
   control_tick_count++;
@@ -385,6 +407,21 @@ static void service_tick(void) {
    * packet or a reply, which rebuild it): rebuilt only when its error byte would change. */
   if (conditions != response.bytes[DXL_STATUS_ERROR_OFFSET]) {
     refresh_ping_reply();
+  }
+}
+
+/* The watchdog (docs/firmware.md "Watchdog"), fed here in the main loop only when, since the
+ * last feed, a control tick has run and the receive path has taken bytes from the ring or has
+ * none waiting: a hang of the loop, of the tick or of the receive path starves it, and 250 ms
+ * later the MCU resets. (Bytes wait legitimately while the sniff holds a packet or a reply is
+ * on the wire: at the slowest baud at most about 130 ms.) */
+static void feed_watchdog(void) {
+  const uint16_t ticks = control_tick_count;
+  const uint8_t tail = uart_rx_tail;
+  if (ticks != fed_tick_count && (tail != fed_rx_tail || tail == uart_rx_head)) {
+    fed_tick_count = ticks;
+    fed_rx_tail = tail;
+    board_watchdog_kick();
   }
 }
 
@@ -412,7 +449,6 @@ static void power_up(void) {
   dxl_finder_init(&finder);
   refresh_ping_reply();
   uart_init(servo.table[CT_ADDR_BAUD_RATE]);
-  board_watchdog_start();
 }
 
 int main(void) {
@@ -420,7 +456,12 @@ int main(void) {
   sei();
   for (;;) {
     board_wake_clear();
-    board_watchdog_kick();
+    feed_watchdog();
+#ifdef AX12_INJECT_HANG_MAIN
+    while (hang_due()) {
+      /* the main loop is stuck */
+    }
+#endif
     service_reply();
     service_rx();
     service_tick();

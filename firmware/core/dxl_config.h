@@ -28,4 +28,14 @@
  * each caller, where flash is what runs out). */
 #define DXL_ONE_COPY __attribute__((noinline))
 
+/* DXL_OPAQUE(pointer): on the AVR, hides where pointer points from the optimiser (an empty
+ * asm that may change it), so a function reaches the fields of a static object through it
+ * with LDD/STD and a displacement (2 B) rather than LDS/STS at the object's address (4 B),
+ * which is what link-time constant propagation of &object would give. Nothing on the host. */
+#if defined(__AVR__)
+#define DXL_OPAQUE(pointer) __asm__("" : "+r"(pointer))
+#else
+#define DXL_OPAQUE(pointer) ((void)0)
+#endif
+
 #endif

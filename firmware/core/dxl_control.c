@@ -45,17 +45,13 @@ uint8_t dxl_control_slope_shift(uint8_t slope) {
   return shift;
 }
 
-/* m x 255 / 1023 = m / 4 - 3 m / 4092, and 3 m / 4092 lies in [0, 0.75]: the floor is m >> 2,
- * less one when the remainder's quarter ((m & 3) / 4) is below 3 m / 4092, i.e. when m & 3 is
- * below the number of the thresholds 0, 341, 682 that m exceeds (exact for every m; a 16 x 16
- * multiply and its 32-bit shift cost the AVR about 60 cycles a tick). */
+/* m x 255 / 1023 = m / 4 - 3 m / 4092, and 3 m / 4092 lies in [0, 0.75]: with t the number of
+ * the thresholds 0, 341, 682 that m exceeds, the floor is (m - t) >> 2 (the floor of m / 4,
+ * less one exactly when m & 3 is below t; exact for every m). A 16 x 16 multiply and its
+ * 32-bit shift cost the AVR about 60 cycles a tick. */
 uint8_t dxl_control_duty(uint16_t magnitude) {
   const uint8_t thresholds_passed = magnitude > 682u ? 3u : magnitude > 341u ? 2u : magnitude != 0u ? 1u : 0u;
-  uint8_t duty = (uint8_t)(magnitude >> 2);
-  if ((uint8_t)(magnitude & 3u) < thresholds_passed) {
-    duty--;
-  }
-  return duty;
+  return (uint8_t)((uint16_t)(magnitude - thresholds_passed) >> 2);
 }
 
 /* The slope acts as power = 2^shift (dxl_control_slope_shift). Past margin + power the law
@@ -63,7 +59,7 @@ uint8_t dxl_control_duty(uint16_t magnitude) {
  * Below, (limit - step) x excess / power with excess < power <= 256: excess x (256 / power)
  * is a byte, so the product / 256 is two 8 x 8 multiplies (the span's bytes), exactly,
  * without a 32-bit multiply and shift (about 70 cycles on the AVR). */
-int16_t dxl_control_compliance_drive(int16_t error_counts, uint8_t cw_margin, uint8_t ccw_margin, uint8_t cw_slope,
+static uint16_t compliance_magnitude(int16_t error_counts, uint8_t cw_margin, uint8_t ccw_margin, uint8_t cw_slope,
                                      uint8_t ccw_slope, uint16_t punch, uint16_t torque_limit) {
   const bool position_cw_of_setpoint = error_counts > 0;
   const uint16_t magnitude = (uint16_t)(position_cw_of_setpoint ? error_counts : -error_counts);
@@ -86,28 +82,86 @@ int16_t dxl_control_compliance_drive(int16_t error_counts, uint8_t cw_margin, ui
     const uint16_t high_product = (uint16_t)(span_high * scaled);
     drive = (uint16_t)(step + (uint8_t)(low_product >> 8) + high_product);
   }
-  return position_cw_of_setpoint ? (int16_t)drive : (int16_t)-(int16_t)drive;
+  return drive;
 }
 
-static uint16_t signed_to_register(int16_t value) {
-  const uint16_t magnitude = (uint16_t)(value < 0 ? -value : value);
-  return (uint16_t)((magnitude > MAGNITUDE_MASK ? MAGNITUDE_MASK : magnitude) | (value < 0 ? DIRECTION_CW_BIT : 0u));
+int16_t dxl_control_compliance_drive(int16_t error_counts, uint8_t cw_margin, uint8_t ccw_margin, uint8_t cw_slope,
+                                     uint8_t ccw_slope, uint16_t punch, uint16_t torque_limit) {
+  const int16_t magnitude =
+      (int16_t)compliance_magnitude(error_counts, cw_margin, ccw_margin, cw_slope, ccw_slope, punch, torque_limit);
+  return error_counts > 0 ? magnitude : (int16_t)-magnitude;
+}
+
+/* Writes value to a Present Speed / Load item: magnitude (at most 1023) in bits 0..9, bit 10
+ * set when negative (CW). Inlined in both places: one copy would save 32 B of flash but cost
+ * the tick 20 cycles of calls (ATmega88, measured). */
+static void set_signed_item(uint8_t *item, int16_t value) {
+  uint16_t magnitude = (uint16_t)value;
+  uint8_t direction_high = 0;
+  if (value < 0) {
+    magnitude = (uint16_t)-value;
+    direction_high = DIRECTION_CW_BIT >> 8;
+  }
+  if (magnitude > MAGNITUDE_MASK) {
+    magnitude = MAGNITUDE_MASK;
+  }
+  item[0] = (uint8_t)magnitude;
+  item[1] = (uint8_t)((magnitude >> 8) | direction_high);
 }
 
 static uint16_t clamp_u16(uint16_t value, uint16_t low, uint16_t high) {
   return value < low ? low : (value > high ? high : value);
 }
 
-/* Moves the setpoint toward goal by at most the Moving Speed step; speed 0 jumps. */
-static void advance_setpoint(dxl_control_t *c, uint16_t goal_counts, uint16_t moving_speed) {
+/* Moves the setpoint toward goal by at most the Moving Speed step (speed 0 jumps there);
+ * returns whether it is at the goal now. */
+static bool advance_setpoint(dxl_control_t *c, uint16_t goal_counts, uint16_t moving_speed) {
   const int32_t goal_q16 = (int32_t)goal_counts << 16;
   const int32_t step_q16 = (int32_t)(moving_speed & MAGNITUDE_MASK) * DXL_SPEED_UNIT_Q16_PER_TICK;
-  if (step_q16 == 0 || c->setpoint_q16 == goal_q16) {
+  const int32_t to_goal = goal_q16 - c->setpoint_q16;
+  if (step_q16 == 0 || (to_goal <= step_q16 && to_goal >= -step_q16)) {
     c->setpoint_q16 = goal_q16;
-  } else if (c->setpoint_q16 < goal_q16) {
-    c->setpoint_q16 = (goal_q16 - c->setpoint_q16 > step_q16) ? c->setpoint_q16 + step_q16 : goal_q16;
-  } else {
-    c->setpoint_q16 = (c->setpoint_q16 - goal_q16 > step_q16) ? c->setpoint_q16 - step_q16 : goal_q16;
+    return true;
+  }
+  /* Counted from the goal, not the old setpoint: one 32-bit value less live where it is
+   * inlined into main (main's stack frame 37 -> 32 B, 14 B less flash). */
+  c->setpoint_q16 = goal_q16 - (to_goal > 0 ? to_goal - step_q16 : to_goal + step_q16);
+  return false;
+}
+
+/* Whether position lies farther from goal than the compliance margin on goal's side plus
+ * the arrival tolerance: the servo still has its own way to go. The helpers shared by the
+ * tick and dxl_control_after_write are kept out of line: one copy each (flash). */
+static DXL_ONE_COPY bool away_from_goal(const uint8_t *table, uint16_t goal, uint16_t position) {
+  const int16_t goal_error = (int16_t)(goal - position);
+  const uint16_t magnitude = (uint16_t)(goal_error < 0 ? -goal_error : goal_error);
+  const uint8_t margin = goal_error > 0 ? table[CT_ADDR_CW_COMPLIANCE_MARGIN] : table[CT_ADDR_CCW_COMPLIANCE_MARGIN];
+  return magnitude > (uint16_t)(margin + DXL_ARRIVAL_TOLERANCE_COUNTS);
+}
+
+static DXL_ONE_COPY uint16_t joint_goal(const uint8_t *table) {
+  return clamp_u16(ct_get_u16(table, CT_ADDR_GOAL_POSITION), ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT),
+                   ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT));
+}
+
+/* The wheel-mode drive magnitude: Moving Speed's, capped at Torque Limit. */
+static DXL_ONE_COPY uint16_t wheel_drive(const uint8_t *table) {
+  const uint16_t wanted = ct_get_u16(table, CT_ADDR_MOVING_SPEED) & MAGNITUDE_MASK;
+  const uint16_t torque_limit = ct_get_u16(table, CT_ADDR_TORQUE_LIMIT);
+  return wanted < torque_limit ? wanted : torque_limit;
+}
+
+void dxl_control_after_write(uint8_t *table) {
+  if (table[CT_ADDR_TORQUE_ENABLE] == 0) {
+    table[CT_ADDR_MOVING] = 0;
+    ct_set_u16(table, CT_ADDR_PRESENT_LOAD, 0);
+    return;
+  }
+  const bool starts = ct_is_wheel_mode(table)
+                          ? wheel_drive(table) != 0
+                          : away_from_goal(table, joint_goal(table), ct_get_u16(table, CT_ADDR_PRESENT_POSITION));
+  if (starts) {
+    table[CT_ADDR_MOVING] = 1;
   }
 }
 
@@ -126,20 +180,24 @@ static uint8_t measured_conditions(const uint8_t *table, const dxl_sensors_t *in
 }
 
 static bool alarm_led_output(dxl_control_t *c, const uint8_t *table, uint8_t active_alarms) {
+  uint16_t hold_ms = c->alarm_led_ms;
   if ((active_alarms & table[CT_ADDR_ALARM_LED]) != 0) {
-    c->alarm_led_ms = DXL_ALARM_LED_HOLD_MS;
-  } else if (c->alarm_led_ms != 0) {
-    c->alarm_led_ms--;
+    hold_ms = DXL_ALARM_LED_HOLD_MS;
+  } else if (hold_ms != 0) {
+    hold_ms--;
   }
-  if (c->alarm_led_ms == 0) {
-    c->blink_phase_ms = 0;
-    return table[CT_ADDR_LED] != 0;
+  c->alarm_led_ms = hold_ms;
+  uint16_t phase_ms = 0;
+  bool on = table[CT_ADDR_LED] != 0;
+  if (hold_ms != 0) {
+    phase_ms = c->blink_phase_ms + 1u;
+    if (phase_ms >= 2u * DXL_ALARM_BLINK_HALF_PERIOD_MS) {
+      phase_ms = 0;
+    }
+    on = phase_ms < DXL_ALARM_BLINK_HALF_PERIOD_MS;
   }
-  c->blink_phase_ms++;
-  if (c->blink_phase_ms >= 2u * DXL_ALARM_BLINK_HALF_PERIOD_MS) {
-    c->blink_phase_ms = 0;
-  }
-  return c->blink_phase_ms < DXL_ALARM_BLINK_HALF_PERIOD_MS;
+  c->blink_phase_ms = phase_ms;
+  return on;
 }
 
 int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_sensors_t *sensors, bool *led_on) {
@@ -149,32 +207,35 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
 
   if (!c->started) {
     c->started = true;
-    c->last_position_counts = position;
-    c->setpoint_q16 = (int32_t)position << 16;
+    c->last_position_counts = position; /* (the setpoint is set below, torque on or off) */
   }
   const int16_t delta = (int16_t)(position - c->last_position_counts);
   c->last_position_counts = position;
+  int16_t speed_x8 = c->speed_x8;
   if (delta <= SPEED_MAX_DELTA_COUNTS && delta >= -SPEED_MAX_DELTA_COUNTS) {
     const int16_t target = (int16_t)(delta * SPEED_UNITS_PER_COUNT_X8);
-    const int16_t diff = (int16_t)(target - c->speed_x8);
+    const int16_t diff = (int16_t)(target - speed_x8);
     int16_t step = (int16_t)((diff + (1 << (SPEED_FILTER_SHIFT - 1u))) >> SPEED_FILTER_SHIFT);
     if (step == 0) {
       step = (int16_t)((diff > 0) - (diff < 0)); /* settle exactly: at rest it reads 0 */
     }
-    c->speed_x8 = (int16_t)(c->speed_x8 + step);
+    speed_x8 = (int16_t)(speed_x8 + step);
+    c->speed_x8 = speed_x8;
   }
-  const int16_t speed_units = (int16_t)((c->speed_x8 + (1 << (SPEED_FRACTION_SHIFT - 1u))) >> SPEED_FRACTION_SHIFT);
+  const int16_t speed_units = (int16_t)((speed_x8 + (1 << (SPEED_FRACTION_SHIFT - 1u))) >> SPEED_FRACTION_SHIFT);
 
   ct_set_u16(table, CT_ADDR_PRESENT_POSITION, position);
-  ct_set_u16(table, CT_ADDR_PRESENT_SPEED, signed_to_register(speed_units));
+  set_signed_item(&table[CT_ADDR_PRESENT_SPEED], speed_units);
   table[CT_ADDR_PRESENT_VOLTAGE] = sensors->voltage_dv;
   table[CT_ADDR_PRESENT_TEMPERATURE] = sensors->temperature_c;
 
-  if (table[CT_ADDR_TORQUE_ENABLE] != 0 && !c->torque_was_enabled) {
-    c->overload_ms = 0; /* Torque Enable written 1: a latched overload ends here */
+  const bool torque_was_enabled = c->torque_was_enabled;
+  uint16_t overload_ms = c->overload_ms;
+  if (table[CT_ADDR_TORQUE_ENABLE] != 0 && !torque_was_enabled) {
+    overload_ms = 0; /* Torque Enable written 1: a latched overload ends here */
   }
   /* Alarms first, so a shutdown takes effect in this tick's drive. */
-  servo->held_conditions = measured_conditions(table, sensors, c->overload_ms >= DXL_OVERLOAD_WINDOW_MS);
+  servo->held_conditions = measured_conditions(table, sensors, overload_ms >= DXL_OVERLOAD_WINDOW_MS);
   c->conditions = dxl_servo_conditions(servo);
   const uint8_t active_alarms = (uint8_t)(c->conditions | dxl_servo_take_events(servo));
   if ((active_alarms & table[CT_ADDR_ALARM_SHUTDOWN]) != 0 && table[CT_ADDR_TORQUE_ENABLE] != 0) {
@@ -186,56 +247,56 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
   *led_on = alarm_led_output(c, table, active_alarms);
 
   const bool torque_enabled = table[CT_ADDR_TORQUE_ENABLE] != 0;
-  if (torque_enabled && !c->torque_was_enabled) {
-    c->setpoint_q16 = (int32_t)position << 16; /* no jump when torque comes on */
-  }
+  const bool torque_came_on = torque_enabled && !torque_was_enabled;
   c->torque_was_enabled = torque_enabled;
 
   const uint16_t torque_limit = ct_get_u16(table, CT_ADDR_TORQUE_LIMIT);
   const uint16_t moving_speed = ct_get_u16(table, CT_ADDR_MOVING_SPEED);
-  int16_t drive = 0;
+  const bool wheel_mode = ct_is_wheel_mode(table);
+  /* Torque off and wheel mode: the setpoint follows the position; torque coming on: no jump. */
+  if (!torque_enabled || torque_came_on || wheel_mode) {
+    c->setpoint_q16 = (int32_t)position << 16;
+  }
+  /* The drive as magnitude and direction (cheaper than a signed value and its magnitude). */
+  uint16_t drive_magnitude = 0;
+  bool drive_cw = false;
   bool moving = false;
-  if (!torque_enabled) {
-    c->setpoint_q16 = (int32_t)position << 16;
-  } else if (ct_is_wheel_mode(table)) {
-    const uint16_t wanted = moving_speed & MAGNITUDE_MASK;
-    const uint16_t applied = wanted < torque_limit ? wanted : torque_limit;
-    drive = (moving_speed & DIRECTION_CW_BIT) ? (int16_t)-(int16_t)applied : (int16_t)applied;
-    moving = drive != 0;
-    c->setpoint_q16 = (int32_t)position << 16;
-  } else {
-    const uint16_t goal = clamp_u16(ct_get_u16(table, CT_ADDR_GOAL_POSITION), ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT),
-                                    ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT));
-    advance_setpoint(c, goal, moving_speed);
+  if (torque_enabled && wheel_mode) {
+    drive_magnitude = wheel_drive(table);
+    drive_cw = (moving_speed & DIRECTION_CW_BIT) != 0;
+    moving = drive_magnitude != 0;
+  } else if (torque_enabled) { /* joint mode */
+    const uint16_t goal = joint_goal(table);
+    const bool setpoint_at_goal = advance_setpoint(c, goal, moving_speed);
     const int16_t setpoint = (int16_t)((c->setpoint_q16 + 0x8000L) >> 16);
     const int16_t error = (int16_t)(setpoint - (int16_t)position);
     const uint8_t cw_margin = table[CT_ADDR_CW_COMPLIANCE_MARGIN];
     const uint8_t ccw_margin = table[CT_ADDR_CCW_COMPLIANCE_MARGIN];
     const uint8_t cw_slope = table[CT_ADDR_CW_COMPLIANCE_SLOPE];
     const uint8_t ccw_slope = table[CT_ADDR_CCW_COMPLIANCE_SLOPE];
-    drive = dxl_control_compliance_drive(error, cw_margin, ccw_margin, cw_slope, ccw_slope,
-                                         ct_get_u16(table, CT_ADDR_PUNCH), torque_limit);
-    const int16_t goal_error = (int16_t)(goal - position);
-    const uint16_t goal_error_magnitude = (uint16_t)(goal_error < 0 ? -goal_error : goal_error);
-    const uint8_t goal_margin = goal_error > 0 ? cw_margin : ccw_margin;
-    moving = c->setpoint_q16 != ((int32_t)goal << 16) ||
-             goal_error_magnitude > (uint16_t)(goal_margin + DXL_ARRIVAL_TOLERANCE_COUNTS);
+    drive_magnitude = compliance_magnitude(error, cw_margin, ccw_margin, cw_slope, ccw_slope,
+                                           ct_get_u16(table, CT_ADDR_PUNCH), torque_limit);
+    drive_cw = error <= 0;
+    moving = !setpoint_at_goal || away_from_goal(table, goal, position);
   }
+  const int16_t drive = drive_cw ? (int16_t)-(int16_t)drive_magnitude : (int16_t)drive_magnitude;
 
   /* The law demands at least Torque Limit: past margin + slope in joint mode (or any error
    * past the margin when Punch >= Torque Limit), a capped drive in wheel mode. */
-  const uint16_t drive_magnitude = (uint16_t)(drive < 0 ? -drive : drive);
   const bool demand_exceeds_limit = torque_limit != 0 && drive_magnitude >= torque_limit;
-  const uint16_t speed_magnitude = (uint16_t)(speed_units < 0 ? -speed_units : speed_units);
-  if (demand_exceeds_limit && speed_magnitude < DXL_OVERLOAD_STALL_SPEED) {
-    if (c->overload_ms < DXL_OVERLOAD_WINDOW_MS) {
-      c->overload_ms++;
+  /* Present Speed along the drive: below the stall speed when stalled, negative when the load
+   * drags the output backwards. */
+  const int16_t speed_along_drive = drive_cw ? (int16_t)-speed_units : speed_units;
+  if (demand_exceeds_limit && speed_along_drive < (int16_t)DXL_OVERLOAD_STALL_SPEED) {
+    if (overload_ms < DXL_OVERLOAD_WINDOW_MS) {
+      overload_ms++;
     }
   } else if (torque_enabled) {
-    c->overload_ms = 0; /* with torque off (shut down by it) the overload stays latched */
+    overload_ms = 0; /* with torque off (shut down by it) the overload stays latched */
   }
+  c->overload_ms = overload_ms;
 
-  ct_set_u16(table, CT_ADDR_PRESENT_LOAD, signed_to_register(drive));
+  set_signed_item(&table[CT_ADDR_PRESENT_LOAD], drive);
   table[CT_ADDR_MOVING] = moving ? 1u : 0u;
   return drive;
 }

@@ -20,8 +20,9 @@
  * reads 0; in profile ax12a Torque Limit is also set to 0) until Torque Enable is written 1.
  *
  * Overload: the drive is at Torque Limit (the error lies past margin + slope, or past the margin
- * when Punch >= Torque Limit, or the wheel-mode drive is capped) while the output is stalled
- * (|Present Speed| under DXL_OVERLOAD_STALL_SPEED) for DXL_OVERLOAD_WINDOW_MS in a row. Once
+ * when Punch >= Torque Limit, or the wheel-mode drive is capped) while the output does not
+ * follow it (Present Speed in the drive's direction under DXL_OVERLOAD_STALL_SPEED: stalled, or
+ * dragged backwards by its load) for DXL_OVERLOAD_WINDOW_MS in a row. Once
  * tripped, the condition holds while that lasts, and while torque is off, until Torque Enable
  * is written 1 (so the reason for a shutdown stays visible in the error byte).
  *
@@ -72,6 +73,14 @@ void dxl_control_init(dxl_control_t *control);
  * drive (-DXL_DRIVE_MAX..DXL_DRIVE_MAX). *led_on is the LED output (register 25, or the
  * alarm blink while an alarm holds). */
 int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_sensors_t *sensors, bool *led_on);
+
+/* What a committed write decides at once of the items the tick derives (docs/policy.md
+ * "Motion semantics"), so the first status a client can read after it agrees with it: with
+ * torque on, Moving reads 1 once the goal (clamped to the angle limits) lies farther from
+ * Present Position than the compliance margin on its side plus DXL_ARRIVAL_TOLERANCE_COUNTS,
+ * or a wheel-mode speed is set that Torque Limit lets through; with torque off, Moving and
+ * Present Load read 0. The next tick goes on from there. */
+void dxl_control_after_write(uint8_t *table);
 
 /* The effective compliance slope: the smallest power of two >= slope, as a shift (1..8). */
 uint8_t dxl_control_slope_shift(uint8_t slope);

@@ -55,4 +55,5 @@ const uint8_t *dxl_image_settings(const uint8_t image[DXL_IMAGE_BYTES]) {
 void dxl_image_build(uint8_t image[DXL_IMAGE_BYTES], const uint8_t *eeprom_area) {
   memset(image, 0xFF, DXL_IMAGE_BYTES);
   dxl_image_slot_build(image, eeprom_area, 0);
+  dxl_image_slot_build(&image[DXL_IMAGE_SLOT_STRIDE], eeprom_area, 1);
 }

@@ -67,8 +67,9 @@ static inline uint8_t dxl_image_write_offset(uint8_t step) {
   return (uint8_t)(step + 1u == DXL_IMAGE_SLOT_BYTES ? 0u : step + 1u);
 }
 
-/* Fills image (DXL_IMAGE_BYTES) as a blank EEPROM (0xFF) holding eeprom_area in slot 0 with
- * sequence number 0: a new servo's first settings (the host's seeds, the tests). */
+/* Fills image (DXL_IMAGE_BYTES) as a blank EEPROM (0xFF) holding eeprom_area in both slots,
+ * slot 1 (sequence number 1) the newest: a new servo's first settings (the emulator's seeds,
+ * the tests), whose next write then stores only the bytes it changes (into slot 0). */
 void dxl_image_build(uint8_t image[DXL_IMAGE_BYTES], const uint8_t *eeprom_area);
 
 #endif

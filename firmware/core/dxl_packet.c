@@ -2,6 +2,7 @@
 
 #include <string.h>
 
+#include "dxl_config.h"
 #include "dxl_protocol.h"
 
 /* Offsets in a candidate: FF FF ID LENGTH INSTRUCTION PARAMS... CHECKSUM */
@@ -10,6 +11,11 @@
 #define OFS_INSTRUCTION 4u
 #define OFS_PARAMS 5u
 #define HEADER_BYTES 4u
+/* A Protocol 2.0 frame: FF FF FD 00 ID LEN_L LEN_H, then LEN bytes (instruction, parameters,
+ * CRC). FF FF FD 00 is no 1.0 header: LENGTH 0. */
+#define PROTOCOL2_HEADER3 0xFDu
+#define PROTOCOL2_OFS_LENGTH 5u
+#define PROTOCOL2_HEADER_BYTES 7u
 
 void dxl_finder_init(dxl_finder_t *finder) { memset(finder, 0, sizeof *finder); }
 
@@ -21,16 +27,17 @@ uint8_t dxl_checksum(const uint8_t *id_length_body, uint16_t count) {
   return (uint8_t)~sum;
 }
 
+/* The move comes last, a tail call: nothing of f needs keeping across it (its frame 8 -> 2 B
+ * and 24 B less flash on the ATmega88, measured). count <= DXL_PACKET_MAX_BYTES. */
 static void drop_front(dxl_finder_t *f, uint16_t count) {
-  if (count >= f->fill) {
-    f->fill = 0;
-  } else {
-    memmove(f->bytes, f->bytes + count, f->fill - count);
-    f->fill = (uint16_t)(f->fill - count);
-  }
+  const uint16_t kept = count >= f->fill ? 0u : (uint16_t)(f->fill - count);
+  f->fill = kept;
   f->before_gap = (count >= f->before_gap) ? 0 : (uint16_t)(f->before_gap - count);
   f->examined = 0;
   f->sum = 0;
+  if (kept != 0) {
+    memmove(f->bytes, f->bytes + count, kept);
+  }
 }
 
 static void apply_release(dxl_finder_t *f) {
@@ -55,12 +62,22 @@ static void describe(const dxl_finder_t *f, dxl_packet_t *p) {
 void dxl_finder_candidate(const dxl_finder_t *finder, dxl_packet_t *packet) { describe(finder, packet); }
 
 bool dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms) {
-  if (finder->fill != 0 && finder->before_gap != finder->fill &&
-      (uint16_t)(now_ms - finder->last_byte_ms) > DXL_PACKET_GAP_TIMEOUT_MS) {
-    finder->before_gap = finder->fill;
-    return true;
+  DXL_OPAQUE(finder); /* 50 B less flash on the ATmega88 (measured) */
+  if ((uint16_t)(now_ms - finder->last_byte_ms) > DXL_PACKET_GAP_TIMEOUT_MS) {
+    finder->skip_left = 0; /* a 2.0 frame cut by the gap ends with it */
+    if (finder->fill != 0 && finder->before_gap != finder->fill) {
+      finder->before_gap = finder->fill;
+      return true;
+    }
   }
   return false;
+}
+
+/* Drops what has come of the Protocol 2.0 frame being skipped. */
+static void skip_protocol2(dxl_finder_t *f) {
+  const uint16_t count = f->skip_left < f->fill ? f->skip_left : f->fill;
+  drop_front(f, count);
+  f->skip_left = (uint16_t)(f->skip_left - count);
 }
 
 uint8_t *dxl_finder_push_slot(dxl_finder_t *finder, uint16_t *room, uint16_t now_ms) {
@@ -71,6 +88,7 @@ uint8_t *dxl_finder_push_slot(dxl_finder_t *finder, uint16_t *room, uint16_t now
 }
 
 void dxl_finder_pushed(dxl_finder_t *finder, uint16_t count, uint16_t now_ms) {
+  DXL_OPAQUE(finder); /* 8 B less flash on the ATmega88 (measured) */
   if (count != 0) { /* no byte came: the gap since the last one goes on */
     finder->fill = (uint16_t)(finder->fill + count);
     finder->last_byte_ms = now_ms;
@@ -109,8 +127,15 @@ static void sum_body(dxl_finder_t *f) {
 
 dxl_find_result_t dxl_finder_next(dxl_finder_t *finder, dxl_packet_t *packet) {
   dxl_finder_t *f = finder;
+  DXL_OPAQUE(f); /* the fields by displacement from Y: 56 B less flash on the ATmega88 */
   apply_release(f);
   for (;;) {
+    if (f->skip_left != 0) {
+      skip_protocol2(f);
+      if (f->skip_left != 0) {
+        return DXL_FIND_NONE;
+      }
+    }
     if (f->examined > OFS_LENGTH) {
       sum_body(f);
     }
@@ -149,6 +174,17 @@ dxl_find_result_t dxl_finder_next(dxl_finder_t *finder, dxl_packet_t *packet) {
       break;
     case OFS_LENGTH:
       if (b < DXL_PACKET_MIN_LENGTH) {
+        if (b == 0 && f->bytes[OFS_ID] == PROTOCOL2_HEADER3) { /* FF FF FD 00: Protocol 2.0 */
+          const uint16_t in = f->before_gap != 0 ? f->before_gap : f->fill;
+          if (in >= PROTOCOL2_HEADER_BYTES) {
+            f->skip_left = (uint16_t)(f->bytes[PROTOCOL2_OFS_LENGTH] | ((uint16_t)f->bytes[PROTOCOL2_OFS_LENGTH + 1u] << 8));
+            drop_front(f, PROTOCOL2_HEADER_BYTES); /* the rest goes at the top of the loop */
+            continue;
+          }
+          if (f->before_gap == 0) {
+            return DXL_FIND_NONE; /* its length is still on the wire */
+          }
+        }
         drop_front(f, 1);
         continue;
       }

@@ -6,6 +6,11 @@
  * Packets for any ID, and other servos' status packets, are framed the same way; choosing
  * what to act on is the caller's business.
  *
+ * Protocol 2.0 frames (FF FF FD 00 ID LEN_L LEN_H ..., docs/policy.md "Framing and bus"): a
+ * header FF FF FD 00 cannot start a 1.0 packet (LENGTH 0); once its 16-bit length is in, the
+ * whole frame is dropped as it arrives (skip_left), and nothing inside it is framed. A gap
+ * ends such a frame like any partial packet.
+ *
  * Resynchronisation: the finder keeps the bytes of the candidate packet. A LENGTH below 2 or
  * a wrong checksum drops only the first byte of the candidate and rescans the rest, so a valid
  * packet that starts inside garbage is still found. No packet spans a gap of more than
@@ -48,14 +53,16 @@ typedef enum {
   DXL_FIND_BAD_CHECKSUM,     /* a framed packet whose checksum is wrong; its fields are reported */
 } dxl_find_result_t;
 
+/* The counters first: within reach of the AVR's 0..63 load/store displacement (DXL_OPAQUE). */
 typedef struct {
-  uint8_t bytes[DXL_PACKET_MAX_BYTES];
   uint16_t fill;        /* bytes held */
   uint16_t examined;    /* leading bytes of bytes[] accepted as the candidate so far */
   uint16_t release;     /* bytes to drop before the next scan (a returned result's) */
   uint16_t before_gap;  /* leading bytes that came before a gap: no packet runs past them */
   uint8_t sum;          /* ID + LENGTH + body over the examined bytes */
   uint16_t last_byte_ms;
+  uint16_t skip_left;   /* bytes of a Protocol 2.0 frame still to come, dropped as they do */
+  uint8_t bytes[DXL_PACKET_MAX_BYTES];
 } dxl_finder_t;
 
 void dxl_finder_init(dxl_finder_t *finder);
@@ -74,6 +81,12 @@ dxl_find_result_t dxl_finder_next(dxl_finder_t *finder, dxl_packet_t *packet);
  * (a packet hidden in them is found now, not when the next byte comes). Call it now and then
  * while idle (the gap is also checked on every push). */
 bool dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms);
+
+/* True when the finder holds nothing and is not in a Protocol 2.0 frame: the next byte
+ * starts a new candidate. */
+static inline bool dxl_finder_idle(const dxl_finder_t *finder) {
+  return finder->fill == finder->release && finder->skip_left == 0;
+}
 
 /* The candidate as examined so far: valid once its instruction has been examined (and the
  * finder returned DXL_FIND_NONE since); its checksum field is meaningful only once the

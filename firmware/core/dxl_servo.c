@@ -1,35 +1,40 @@
 #include "dxl_servo.h"
 
+#include "dxl_control.h"
+
 #include <stddef.h>
 #include <string.h>
 
 #include "dxl_protocol.h"
 
+/* Moving Speed in joint mode: 0..1023 (ct_items.h); in wheel mode bit 10 adds a direction. */
+#define MOVING_SPEED_JOINT_MAX 1023u
+
 /* The reply rules (docs/policy.md "Replies", "Instructions and their errors"), as two switches
  * (cheaper on the AVR than a table search on every packet):
- *   params_fit()         parameter counts that fit the instruction (else Instruction Error);
+ *   plan_instruction()   parameter counts that fit the instruction (else Instruction Error),
+ *                        in the switch that plans it (one dispatch);
  *   min_status_level()   the Status Return Level from which a unicast packet is answered.
  * Broadcast packets are answered only for PING in the AX-12 profile. An instruction not
  * listed is an Instruction Error, answered from level 2. */
 #define STATUS_LEVEL_ALL 2u
 #define BROADCAST_PING_ANSWERED (DXL_PROFILE == DXL_PROFILE_AX12)
 
-static bool params_fit(uint8_t instruction, uint8_t param_count) {
-  switch (instruction) {
-  case DXL_INST_PING:
-  case DXL_INST_ACTION:
-  case DXL_INST_RESET:
-    return param_count == 0;
-  case DXL_INST_READ:
-    return param_count == 2;
-  case DXL_INST_WRITE:
-  case DXL_INST_REG_WRITE:
-  case DXL_INST_SYNC_WRITE:
-    return param_count >= 2;
-  default:
-    return false;
-  }
-}
+/* Deliberate defects, for the tests of `scripts/ax12 conform` only (test/conform builds extra
+ * ELFs with them, through AX12_CONFORM_DEFECT in firmware/CMakeLists.txt): one ignores the
+ * Status Return Level (answers as at level 2), one answers a broadcast READ. Never defined in
+ * a product build. */
+#ifdef AX12_CONFORM_DEFECT_IGNORE_SRL
+#define STATUS_LEVEL(servo) STATUS_LEVEL_ALL
+#else
+#define STATUS_LEVEL(servo) ((servo)->table[CT_ADDR_STATUS_RETURN_LEVEL])
+#endif
+#ifdef AX12_CONFORM_DEFECT_BROADCAST_READ
+#define BROADCAST_ANSWERED(instruction) \
+  ((BROADCAST_PING_ANSWERED && (instruction) == DXL_INST_PING) || (instruction) == DXL_INST_READ)
+#else
+#define BROADCAST_ANSWERED(instruction) (BROADCAST_PING_ANSWERED && (instruction) == DXL_INST_PING)
+#endif
 
 static uint8_t min_status_level(uint8_t instruction) {
   switch (instruction) {
@@ -44,14 +49,17 @@ static uint8_t min_status_level(uint8_t instruction) {
 
 bool dxl_servo_answers(const dxl_servo_t *servo, uint8_t id, uint8_t instruction) {
   if (id == DXL_ID_BROADCAST) {
-    return BROADCAST_PING_ANSWERED && instruction == DXL_INST_PING;
+    return BROADCAST_ANSWERED(instruction);
   }
-  return id == servo->table[CT_ADDR_ID] && servo->table[CT_ADDR_STATUS_RETURN_LEVEL] >= min_status_level(instruction);
+  return id == servo->table[CT_ADDR_ID] && STATUS_LEVEL(servo) >= min_status_level(instruction);
 }
 
 
+/* Whether the window [start, start + len) shares an address with [first_addr, last_addr], for
+ * a window within the table (start + len <= CT_SIZE: every window ct_check_write() accepts),
+ * so its end fits a byte. */
 static bool window_overlaps(uint8_t start, uint8_t len, uint8_t first_addr, uint8_t last_addr) {
-  return start <= last_addr && (uint16_t)start + len > first_addr;
+  return start <= last_addr && (uint8_t)(start + len) > first_addr;
 }
 
 /* Angle Limit condition (docs/policy.md "Goal Position and the angle limits"), for the table
@@ -139,7 +147,7 @@ uint8_t dxl_servo_stream_mask(const dxl_servo_t *servo) {
       (1u << DXL_INST_PING) | (1u << DXL_INST_READ) | (1u << DXL_INST_WRITE) | (1u << DXL_INST_REG_WRITE) |
           (1u << DXL_INST_ACTION),
   };
-  const uint8_t level = servo->table[CT_ADDR_STATUS_RETURN_LEVEL];
+  const uint8_t level = STATUS_LEVEL(servo);
   uint8_t mask = mask_from_level[level > STATUS_LEVEL_ALL ? STATUS_LEVEL_ALL : level];
   if (servo->table[CT_ADDR_REGISTERED_INSTRUCTION] != 0 &&
       (after_flags_of_write(servo->reg_start, servo->reg_len) & DXL_AFTER_APPLY_BAUD) != 0) {
@@ -148,24 +156,39 @@ uint8_t dxl_servo_stream_mask(const dxl_servo_t *servo) {
   return mask;
 }
 
-static void plan_write(dxl_response_t *r, uint8_t action, uint8_t start, const uint8_t *data, uint8_t len) {
-  r->action = action;
-  r->window_start = start;
-  r->window_data = data;
-  r->window_len = len;
+/* The write of data[0..len) at start that action plans (WRITE, REG_WRITE, ACTION, SYNC_WRITE),
+ * if ct_check_write() accepts it; returns its error bits. */
+static uint8_t plan_checked_write(const dxl_servo_t *s, dxl_response_t *r, uint8_t action, uint8_t start,
+                                  const uint8_t *data, uint8_t len) {
+  const uint8_t error = ct_check_write(s->table, start, data, len);
+  if (error == 0) {
+    r->action = action;
+    r->window_start = start;
+    r->window_data = data;
+    r->window_len = len;
+  }
+  return error;
 }
 
 /* Prepares the side effect of an instruction addressed to this servo (or broadcast) and
- * returns its event error bits. */
+ * returns its event error bits: Instruction Error when its parameter count does not fit it
+ * (PING, ACTION, RESET: none; READ: 2; WRITE, REG_WRITE, SYNC_WRITE: at least 2). */
 static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, bool broadcast, dxl_response_t *r) {
   const uint8_t *params = p->params;
+  const uint8_t count = p->param_count;
   switch (p->instruction) {
   case DXL_INST_PING:
+    if (count != 0) {
+      break;
+    }
     return 0;
   case DXL_INST_READ: {
+    if (count != 2) {
+      break;
+    }
     const uint8_t start = params[0];
     const uint8_t len = params[1];
-    if (len == 0 || start >= CT_SIZE || len > CT_SIZE - start) {
+    if (len == 0 || start >= CT_SIZE || len > (uint8_t)(CT_SIZE - start)) {
       return DXL_ERR_RANGE;
     }
     r->window_start = start;
@@ -173,38 +196,41 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
     return 0;
   }
   case DXL_INST_WRITE:
-  case DXL_INST_REG_WRITE: {
-    const uint8_t len = (uint8_t)(p->param_count - 1u);
-    const uint8_t error = ct_check_write(s->table, params[0], &params[1], len);
-    if (error == 0) {
-      plan_write(r, p->instruction == DXL_INST_WRITE ? DXL_ACTION_WRITE : DXL_ACTION_REGISTER, params[0], &params[1],
-                 len);
+  case DXL_INST_REG_WRITE:
+    if (count < 2) {
+      break;
     }
-    return error;
-  }
+    return plan_checked_write(s, r, p->instruction == DXL_INST_WRITE ? DXL_ACTION_WRITE : DXL_ACTION_REGISTER,
+                              params[0], &params[1], (uint8_t)(count - 1u));
   case DXL_INST_ACTION:
+    if (count != 0) {
+      break;
+    }
     if (s->table[CT_ADDR_REGISTERED_INSTRUCTION] == 0) {
       return DXL_ERR_INSTRUCTION;
     }
-    /* Validated at REG_WRITE; checked again in case Lock or the limits changed since. */
-    if (ct_check_write(s->table, s->reg_start, s->reg_data, s->reg_len) != 0) {
-      return DXL_ERR_RANGE;
-    }
-    plan_write(r, DXL_ACTION_RUN_REGISTERED, s->reg_start, s->reg_data, s->reg_len);
-    return 0;
+    /* Validated at REG_WRITE; checked again in case Lock or the limits changed since (a
+     * refusal is a Range Error, the only error ct_check_write() returns). */
+    return plan_checked_write(s, r, DXL_ACTION_RUN_REGISTERED, s->reg_start, s->reg_data, s->reg_len);
   case DXL_INST_RESET:
+    if (count != 0) {
+      break;
+    }
     if (s->table[CT_ADDR_LOCK] != 0) {
       return DXL_ERR_INSTRUCTION;
     }
     r->action = DXL_ACTION_RESET;
     return 0;
   case DXL_INST_SYNC_WRITE: {
+    if (count < 2) {
+      break;
+    }
     if (!broadcast) {
       return DXL_ERR_INSTRUCTION;
     }
     const uint8_t start = params[0];
     const uint8_t slice_data_len = params[1];
-    const uint8_t slices_bytes = (uint8_t)(p->param_count - 2u);
+    const uint8_t slices_bytes = (uint8_t)(count - 2u);
     const uint16_t slice_len = (uint16_t)(slice_data_len + 1u); /* 1..256 */
     if (slice_data_len == 0 || slices_bytes == 0) {
       return 0; /* LENGTH does not fit: the whole packet is ignored */
@@ -213,23 +239,20 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
      * packet's end, else the whole packet is ignored. */
     uint16_t own_ofs = 0;
     uint16_t ofs = 2;
-    for (; ofs < p->param_count; ofs = (uint16_t)(ofs + slice_len)) {
+    for (; ofs < count; ofs = (uint16_t)(ofs + slice_len)) {
       if (own_ofs == 0 && params[ofs] == s->table[CT_ADDR_ID]) {
         own_ofs = ofs;
       }
     }
-    if (ofs != p->param_count || own_ofs == 0) {
+    if (ofs != count || own_ofs == 0) {
       return 0;
     }
-    const uint8_t error = ct_check_write(s->table, start, &params[own_ofs + 1u], slice_data_len);
-    if (error == 0) {
-      plan_write(r, DXL_ACTION_WRITE, start, &params[own_ofs + 1u], slice_data_len);
-    }
-    return error;
+    return plan_checked_write(s, r, DXL_ACTION_WRITE, start, &params[own_ofs + 1u], slice_data_len);
   }
   default:
-    return DXL_ERR_INSTRUCTION;
+    break;
   }
+  return DXL_ERR_INSTRUCTION;
 }
 
 static void encode_status(const dxl_servo_t *s, uint8_t error, const uint8_t *params, uint8_t param_count,
@@ -256,19 +279,19 @@ static void encode_status(const dxl_servo_t *s, uint8_t error, const uint8_t *pa
 
 /* Everything but the reply bytes: no reply, no action, no events. */
 static void response_clear(dxl_response_t *r) {
-  memset(&r->length, 0, sizeof *r - offsetof(dxl_response_t, length));
+  memset(r, 0, offsetof(dxl_response_t, bytes));
 }
 
 void dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response) {
   const dxl_servo_t *s = servo;
   dxl_response_t *r = response;
+  DXL_OPAQUE(r); /* its fields by displacement (dxl_config.h) */
   response_clear(r);
   const bool broadcast = packet->id == DXL_ID_BROADCAST;
   if (!broadcast && packet->id != s->table[CT_ADDR_ID]) {
     return; /* another servo's packet, or a status packet on the bus */
   }
-  const bool fits = params_fit(packet->instruction, packet->param_count);
-  r->events = fits ? plan_instruction(s, packet, broadcast, r) : DXL_ERR_INSTRUCTION;
+  r->events = plan_instruction(s, packet, broadcast, r);
 
   /* The Angle Limit condition as it will be after this packet. */
   uint8_t start = 0;
@@ -296,7 +319,7 @@ void dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl
   if (angle_limit_after_write(s, start, data, len)) {
     error |= DXL_ERR_ANGLE_LIMIT;
   }
-  const bool returns_data = fits && packet->instruction == DXL_INST_READ && r->events == 0;
+  const bool returns_data = packet->instruction == DXL_INST_READ && r->events == 0; /* (so it fits) */
   encode_status(s, error, returns_data ? &s->table[r->window_start] : NULL, returns_data ? r->window_len : 0, r);
 }
 
@@ -307,6 +330,7 @@ void dxl_servo_ping_reply(const dxl_servo_t *servo, dxl_response_t *reply) {
 /* The one write path into the table for instructions (WRITE, ACTION, SYNC_WRITE). The
  * window was checked by ct_check_write(). */
 static void apply_write(dxl_servo_t *s, uint8_t start, const uint8_t *data, uint8_t len) {
+  DXL_OPAQUE(s); /* the table and slot by displacement: 12 B less flash on the ATmega88 */
   const bool was_wheel_mode = ct_is_wheel_mode(s->table);
   for (uint8_t i = 0; i < len; i++) {
     const uint8_t addr = (uint8_t)(start + i);
@@ -323,12 +347,17 @@ static void apply_write(dxl_servo_t *s, uint8_t start, const uint8_t *data, uint
     s->goal_written_in_wheel_mode = goal_written || (was_wheel_mode && s->goal_written_in_wheel_mode);
   } else {
     s->goal_written_in_wheel_mode = false;
+    /* docs/policy.md "Motion semantics": back in joint mode, a wheel-mode Moving Speed keeps
+     * its speed (bits 0..9) and drops its direction (bit 10), inside the joint range 0..1023. */
+    s->table[CT_ADDR_MOVING_SPEED + 1] &= (uint8_t)(MOVING_SPEED_JOINT_MAX >> 8);
   }
+  dxl_control_after_write(s->table);
 }
 
 void dxl_servo_commit(dxl_servo_t *servo, const dxl_response_t *response) {
   dxl_servo_t *s = servo;
   const dxl_response_t *r = response;
+  DXL_OPAQUE(r); /* with prepare's: 36 B less flash on the ATmega88 (measured) */
   s->pending_events |= r->events;
   switch (r->action) {
   case DXL_ACTION_WRITE:
@@ -341,12 +370,10 @@ void dxl_servo_commit(dxl_servo_t *servo, const dxl_response_t *response) {
     s->table[CT_ADDR_REGISTERED_INSTRUCTION] = 1;
     break;
   case DXL_ACTION_RUN_REGISTERED: {
-    uint8_t data[DXL_REG_SLOT_BYTES];
-    const uint8_t start = s->reg_start;
+    /* The slot is emptied first; its bytes stay (apply_write writes the table alone). */
     const uint8_t len = s->reg_len;
-    memcpy(data, s->reg_data, len);
     clear_registered(s);
-    apply_write(s, start, data, len);
+    apply_write(s, s->reg_start, s->reg_data, len);
     break;
   }
   default: /* RESET runs after the reply: DXL_AFTER_FACTORY_RESET */
@@ -366,7 +393,7 @@ void dxl_servo_reject_checksum(dxl_servo_t *servo, const dxl_packet_t *packet, d
   }
   response->events = DXL_ERR_CHECKSUM;
   servo->pending_events |= DXL_ERR_CHECKSUM;
-  if (servo->table[CT_ADDR_STATUS_RETURN_LEVEL] >= STATUS_LEVEL_ALL) {
+  if (STATUS_LEVEL(servo) >= STATUS_LEVEL_ALL) {
     encode_status(servo, (uint8_t)(DXL_ERR_CHECKSUM | dxl_servo_conditions(servo)), NULL, 0, response);
   }
 }

@@ -40,9 +40,9 @@ typedef enum {
   DXL_ACTION_RESET,         /* factory reset, after the reply */
 } dxl_action_t;
 
+/* The bytes come last: the other fields lie within the AVR's 0..63 load/store displacement. */
 typedef struct {
-  /* The status packet; length 0 = stay silent. */
-  uint8_t bytes[DXL_REPLY_MAX_BYTES];
+  /* The status packet, bytes[0..length); length 0 = stay silent. */
   uint8_t length;
   uint16_t delay_us; /* after the stop bit of the packet's last byte: 2 us x Return Delay Time */
   uint8_t after;     /* DXL_AFTER_* */
@@ -54,6 +54,7 @@ typedef struct {
   uint8_t window_len;
   const uint8_t *window_data;
   uint8_t events;            /* event error bits this packet raised (range, checksum, instruction) */
+  uint8_t bytes[DXL_REPLY_MAX_BYTES];
 } dxl_response_t;
 
 typedef struct {

@@ -88,7 +88,7 @@ static uint16_t item_value_after_write(const uint8_t *table, uint8_t addr, uint8
 }
 
 uint8_t ct_check_write(const uint8_t *table, uint8_t start, const uint8_t *data, uint8_t len) {
-  if (len == 0 || start >= CT_SIZE || len > CT_SIZE - start) {
+  if (len == 0 || start >= CT_SIZE || len > (uint8_t)(CT_SIZE - start)) {
     return DXL_ERR_RANGE;
   }
   const bool locked = table[CT_ADDR_LOCK] != 0;

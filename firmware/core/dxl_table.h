@@ -73,10 +73,15 @@ void ct_load_power_up_ram(uint8_t *table, uint16_t present_position);
 /* True when both angle limits are 0 (endless turn). */
 bool ct_is_wheel_mode(const uint8_t *table);
 
-/* The value a byte of the table would have after writing data[0..len) at start. */
+/* The value a byte of the table would have after writing data[0..len) at start, for a window
+ * that does not pass address 255 (start + len <= 256, as every window ct_check_write()
+ * accepts): below start the byte offset wraps to at least 256 - start >= len, so one byte
+ * compare tells whether addr lies in the window (fewer instructions on the AVR than testing
+ * addr >= start and the 16-bit difference). */
 static inline uint8_t ct_byte_after_write(const uint8_t *table, uint8_t addr, uint8_t start, const uint8_t *data,
                                           uint8_t len) {
-  return (addr >= start && addr - start < len) ? data[addr - start] : table[addr];
+  const uint8_t offset = (uint8_t)(addr - start);
+  return offset < len ? data[offset] : table[addr];
 }
 
 /* The value the 16-bit item at addr would hold after writing data[0..len) at start. */

@@ -4,11 +4,10 @@
 #include <avr/interrupt.h>
 #include <avr/io.h>
 #include <avr/sleep.h>
-#include <avr/wdt.h>
 
 #define LED_BIT PB5
 
-/* Filled in .init3 by startup.S (MCUSR = 0 clears WDRF, then the watchdog is switched off). */
+/* Filled in .init3 by startup.S (MCUSR = 0 clears WDRF, then the watchdog is set to 250 ms). */
 uint8_t board_reset_flags __attribute__((section(".noinit")));
 
 void board_init(void) {
@@ -28,10 +27,6 @@ void board_led_set(bool on) {
     PORTB &= (uint8_t)~_BV(LED_BIT);
   }
 }
-
-void board_watchdog_start(void) { wdt_enable(WDTO_250MS); }
-
-void board_watchdog_kick(void) { wdt_reset(); }
 
 /* Per wake by an ISR that left no work (a byte skipped or framed by the RX ISR, the usual
  * case on a busy bus): SBIS, RJMP, CLI, SBIC, SEI, SLEEP (8 cycles). The flag is tested

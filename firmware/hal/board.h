@@ -16,8 +16,7 @@
 #include <stdint.h>
 
 /* MCUSR as found at reset (PORF, EXTRF, BORF, WDRF), kept in .noinit; MCUSR itself is
- * cleared and the watchdog stopped in .init3, before C starts (a watchdog reset leaves the
- * watchdog running at 16 ms). */
+ * cleared and the watchdog set to 250 ms in .init3, before C starts (startup.S). */
 extern uint8_t board_reset_flags;
 
 /* LED pin as output, off. */
@@ -25,10 +24,9 @@ void board_init(void);
 
 void board_led_set(bool on);
 
-/* Watchdog at 250 ms; the main loop resets it every pass (it never blocks: EEPROM writes are
- * interleaved, one byte per pass, see nvm.h). */
-void board_watchdog_start(void);
-void board_watchdog_kick(void);
+/* The watchdog (250 ms, running from .init3): the main loop feeds it only when the control
+ * tick and the receive path have made progress since the last feed (main.c feed_watchdog). */
+static inline void board_watchdog_kick(void) { __asm__ __volatile__("wdr" ::: "memory"); }
 
 /* Start of a main loop pass: forget earlier wake-ups (the pass is about to look at everything). */
 static inline void board_wake_clear(void) { GPIOR0 &= (uint8_t)~_BV(BOARD_WAKE_BIT); }

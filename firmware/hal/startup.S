@@ -8,9 +8,11 @@
  *         STACK_PAINT_BYTE). SP is RAMEND from reset and nothing is on the stack yet; the loop
  *         uses r24, r25, Z and no stack; 6 cycles per byte (0.15 ms on the ATmega88, 0.53 ms
  *         on the ATmega328P, with 624 B of static RAM). See docs/firmware.md "Stack paint".
- * .init3  (r1 = 0, SP set by .init2) board_reset_flags = MCUSR; MCUSR = 0 (clears WDRF, which
- *         would force the watchdog on); then the timed WDCE sequence switches the watchdog
- *         off until main() starts it (a watchdog reset leaves it running at 16 ms).
+ * .init3  (r1 = 0, SP set by .init2) board_reset_flags = MCUSR; MCUSR = 0 (clears WDRF); then
+ *         the timed WDCE sequence sets the watchdog to reset after 250 ms, from the first
+ *         instructions of boot on (a watchdog reset leaves it running at 16 ms, which .init1's
+ *         0.5 ms and this are well inside). Boot until the main loop's first feed takes about
+ *         2 ms (the ADC's three readings, both EEPROM slots); docs/firmware.md "Watchdog".
  */
 #include <avr/io.h>
 
@@ -36,4 +38,5 @@
   out _SFR_IO_ADDR(MCUSR), r1
   ldi r24, _BV(WDCE) | _BV(WDE)
   sts _SFR_MEM_ADDR(WDTCSR), r24
-  sts _SFR_MEM_ADDR(WDTCSR), r1
+  ldi r24, _BV(WDE) | _BV(WDP2)      /* 250 ms (WDTO_250MS), reset mode */
+  sts _SFR_MEM_ADDR(WDTCSR), r24

@@ -82,6 +82,26 @@
   ldi r24, HAND_OVER_READ_LATE_TICKS
   rjmp .Lstamp
 
+/* (Placed here for the branch range.) LENGTH 0 or 1 cannot start a 1.0 packet. After the ID
+ * 0xFD, LENGTH 0 starts a Protocol 2.0 frame (FF FF FD 00 ID LEN_L LEN_H ...): the sniff ends
+ * and the frame is the finder's, which skips it whole by its 16-bit length (docs/policy.md
+ * "Framing and bus"); the sniff stays off until the finder is done with it. Anything else is
+ * dropped and the sniff waits for the next FF. r25 = 0 here. */
+.Lh_protocol2:
+  lds r24, uart_sniff_sum            /* the ID */
+  cpi r24, DXL_PROTOCOL2_ID_ASM
+  brne .Lh_protocol2_not
+  push r30
+  push r31
+  ldi r24, DXL_HEADER_BYTE_ASM
+  rcall .Lring_put
+  rcall .Lring_put
+  ldi r24, DXL_PROTOCOL2_ID_ASM
+  rcall .Lring_put
+  rjmp .Lsniff_off                   /* and this byte, the 00 */
+.Lh_protocol2_not:
+  rjmp .Lh_restart
+
 /* Appends r24 to the ring (it has room: the sniff holds at most UART_SNIFF_MAX_HELD
  * bytes); Z clobbered. The head is published before the store: the main loop leaves the
  * ring alone while the sniff runs, and this runs with interrupts off. */
@@ -247,7 +267,7 @@
   rjmp .Lh_set
 .Lh_length:
   cpi r25, 2
-  brlo .Lh_restart
+  brlo .Lh_no_length
   lds r24, uart_sniff_fate
   cpi r24, UART_FATE_DROP
   brne .Lh_keep
@@ -261,6 +281,10 @@
   push r30
   push r31
   rjmp .Lsn_length
+.Lh_no_length:                       /* LENGTH 0 or 1 (.Lh_protocol2) */
+  tst r25
+  brne .Lh_restart
+  rjmp .Lh_protocol2
 
 
   .global USART_RX_vect

@@ -70,12 +70,19 @@ bool eeprom_store_image_fields(const uint8_t *eeprom, size_t size, uint8_t *id, 
 
 int eeprom_store_load(const char *path, uint8_t *eeprom, size_t size, char *err, size_t err_len) {
   memset(eeprom, 0xFF, size);
-  const int fd = open(path, O_RDONLY | O_CLOEXEC);
+  /* O_NONBLOCK: opening a FIFO must not wait for a writer; it is refused below. */
+  const int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   if (fd < 0) {
     if (errno == ENOENT) {
       return 0;
     }
     snprintf(err, err_len, "cannot read %s: %s", path, strerror(errno));
+    return -1;
+  }
+  struct stat st;
+  if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    snprintf(err, err_len, "%s is not a regular file", path);
+    close(fd);
     return -1;
   }
   size_t got = 0;
@@ -141,6 +148,30 @@ int eeprom_store_save(const char *path, const uint8_t *eeprom, size_t size, char
     return -1;
   }
   return 0;
+}
+
+bool eeprom_store_file_fits(const char *path, size_t size, char *why, size_t why_len) {
+  struct stat st;
+  if (stat(path, &st) != 0) {
+    return true; /* no file: the emulator seeds one */
+  }
+  if ((size_t)st.st_size != size) {
+    snprintf(why, why_len, "%lld bytes, not the %zu of this MCU's EEPROM", (long long)st.st_size, size);
+    return false;
+  }
+  return true;
+}
+
+int eeprom_store_set_aside(const char *path, char *aside, size_t aside_len) {
+  for (unsigned n = 1; n < 1000u; n++) {
+    snprintf(aside, aside_len, "%s.invalid-%u", path, n);
+    struct stat st;
+    if (lstat(aside, &st) != 0 && errno == ENOENT) {
+      return rename(path, aside);
+    }
+  }
+  errno = EEXIST;
+  return -1;
 }
 
 void eeprom_store_path(char *out, size_t out_len, const char *dir, unsigned n) {

@@ -28,11 +28,19 @@ void eeprom_store_seed(uint8_t *eeprom, size_t size, eeprom_profile_t profile, u
 bool eeprom_store_image_fields(const uint8_t *eeprom, size_t size, uint8_t *id, uint8_t *baud_reg);
 
 /* Reads path into eeprom[0..size): a shorter file leaves the rest blank (0xFF), a longer one
- * is cut. Returns 1 when read, 0 when the file does not exist, -1 on error (err set). */
+ * is cut. Returns 1 when read, 0 when the file does not exist, -1 on error (err set), which
+ * includes a path that is not a regular file (a FIFO is refused without waiting for it). */
 int eeprom_store_load(const char *path, uint8_t *eeprom, size_t size, char *err, size_t err_len);
 
 /* Replaces path with eeprom[0..size) atomically. Returns 0, or -1 with err set. */
 int eeprom_store_save(const char *path, const uint8_t *eeprom, size_t size, char *err, size_t err_len);
+
+/* False when path exists with another size than an EEPROM of size bytes (why says so). */
+bool eeprom_store_file_fits(const char *path, size_t size, char *why, size_t why_len);
+
+/* Renames path to "<path>.invalid-<n>" with the first n not taken (the name in aside). 0, or
+ * -1 with errno. */
+int eeprom_store_set_aside(const char *path, char *aside, size_t aside_len);
 
 /* The state file of slot n in dir: "<dir>/servo-<n>.eeprom". */
 void eeprom_store_path(char *out, size_t out_len, const char *dir, unsigned n);

@@ -38,14 +38,17 @@ static void pty_deliver(void *ctx, const bus_rx_t *rx) {
   pty->out_count++;
 }
 
-static void refresh_baud(pty_bridge_t *pty) {
-  const double bps = pty_get_bps(pty->master_fd);
+/* The client set bps (0: unknown, keep the last): the bus sees the adapter's rate for it. */
+static void use_client_bps(pty_bridge_t *pty, double bps) {
   if (bps > 0.0 && bps != pty->bps) {
     pty->bps = bps;
-    pty->cycles_per_bit = sim_bps_to_cycles_per_bit(bps);
+    pty->actual_bps = usb_adapter_actual_bps(pty->adapter.config.kind, bps);
+    pty->cycles_per_bit = sim_bps_to_cycles_per_bit(pty->actual_bps);
     bus_baud_changed(pty->bus);
   }
 }
+
+static void refresh_baud(pty_bridge_t *pty) { use_client_bps(pty, pty_get_bps(pty->master_fd)); }
 
 static void set_nonblock(int fd) {
   const int flags = fcntl(fd, F_GETFL);
@@ -140,8 +143,8 @@ static int start_reader(pty_bridge_t *pty, char *err, size_t err_len) {
   return 0;
 }
 
-int pty_bridge_open(pty_bridge_t *pty, bus_t *bus, const sim_cycles_t *now, double initial_bps, const char *link_path,
-                    char *err, size_t err_len) {
+int pty_bridge_open(pty_bridge_t *pty, bus_t *bus, const sim_cycles_t *now, double initial_bps,
+                    const usb_adapter_config_t *adapter, const char *link_path, char *err, size_t err_len) {
   memset(pty, 0, sizeof(*pty));
   pty->master_fd = pty->slave_fd = -1;
   pty->stop_pipe[0] = pty->stop_pipe[1] = pty->wake_pipe[0] = pty->wake_pipe[1] = -1;
@@ -149,6 +152,7 @@ int pty_bridge_open(pty_bridge_t *pty, bus_t *bus, const sim_cycles_t *now, doub
   pthread_cond_init(&pty->space, NULL);
   pty->bus = bus;
   pty->now = now;
+  usb_adapter_init(&pty->adapter, adapter, *now);
   struct termios raw;
   memset(&raw, 0, sizeof(raw));
   cfmakeraw(&raw);
@@ -163,7 +167,8 @@ int pty_bridge_open(pty_bridge_t *pty, bus_t *bus, const sim_cycles_t *now, doub
   (void)fcntl(pty->master_fd, F_SETFL, flags | O_NONBLOCK);
   (void)pty_set_bps(pty->slave_fd, initial_bps);
   pty->bps = initial_bps;
-  pty->cycles_per_bit = sim_bps_to_cycles_per_bit(initial_bps);
+  pty->actual_bps = usb_adapter_actual_bps(adapter->kind, initial_bps);
+  pty->cycles_per_bit = sim_bps_to_cycles_per_bit(pty->actual_bps);
   refresh_baud(pty);
   const bus_node_ops_t ops = {.cycles_per_bit = pty_cycles_per_bit, .deliver = pty_deliver, .ctx = pty};
   pty->node = bus_add_node(bus, "pty", &ops);
@@ -240,47 +245,73 @@ void pty_bridge_close(pty_bridge_t *pty) {
   pty->master_fd = pty->slave_fd = -1;
   free(pty->out);
   pty->out = NULL;
-  pty->out_count = pty->out_cap = 0;
+  pty->out_count = pty->out_cap = pty->out_fed = 0;
 }
 
+/* Writes the n bytes at the head of out[] (already through the adapter) to the pty in one
+ * write; what the pty cannot take is dropped and counted (the client does not read). */
+static void send_to_client(pty_bridge_t *pty, size_t n) {
+  uint8_t chunk[1024];
+  while (n) {
+    size_t len = 0;
+    while (len < n && len < sizeof(chunk)) {
+      chunk[len++] = pty->out[pty->out_head].value;
+      pty->out_head = (pty->out_head + 1u) % pty->out_cap;
+    }
+    pty->out_count -= len;
+    pty->out_fed -= len;
+    n -= len;
+    size_t done = 0;
+    while (done < len) {
+      const ssize_t w = write(pty->master_fd, chunk + done, len - done);
+      if (w < 0 && errno == EINTR) {
+        continue;
+      }
+      if (w <= 0) {
+        pty->dropped_to_client += len - done;
+        break;
+      }
+      done += (size_t)w;
+    }
+    pty->to_client += done;
+  }
+}
+
+static bool byte_due(const pty_bridge_t *pty, sim_cycles_t now) {
+  return pty->out_fed < pty->out_count && pty->out[(pty->out_head + pty->out_fed) % pty->out_cap].end <= now;
+}
+
+/* Feeds the adapter every byte whose stop bit has ended by the world's time, lets its timer
+ * run to that time, and writes what it hands to the host: one write per USB packet, or with
+ * the wire adapter every due byte in one write. */
 static bool write_due(pty_bridge_t *pty) {
   const sim_cycles_t now = *pty->now;
-  uint8_t chunk[1024];
-  size_t n = 0;
-  while (pty->out_count && n < sizeof(chunk)) {
-    const pty_out_byte_t *b = &pty->out[pty->out_head];
-    if (b->end > now) {
-      break;
+  usb_adapter_t *a = &pty->adapter;
+  const bool per_packet = a->config.kind != USB_ADAPTER_WIRE;
+  size_t released = 0; /* wire: bytes handed to the host, written together at the end */
+  bool moved = false;
+  usb_adapter_packet_t packet;
+  for (bool more = true; more;) {
+    more = byte_due(pty, now);
+    if (more) {
+      usb_adapter_rx_byte(a, pty->out[(pty->out_head + pty->out_fed) % pty->out_cap].end);
+      pty->out_fed++;
+    } else {
+      usb_adapter_advance(a, now);
     }
-    chunk[n++] = b->value;
-    pty->out_head = (pty->out_head + 1u) % pty->out_cap;
-    pty->out_count--;
-  }
-  if (n == 0) {
-    return false;
-  }
-  size_t done = 0;
-  while (done < n) {
-    const ssize_t w = write(pty->master_fd, chunk + done, n - done);
-    if (w < 0 && errno == EINTR) {
-      continue;
+    while (usb_adapter_pop(a, &packet)) { /* after every byte: the ring stays short */
+      moved = true;
+      if (per_packet) {
+        send_to_client(pty, packet.bytes);
+      } else {
+        released += packet.bytes;
+      }
     }
-    if (w <= 0) {
-      pty->dropped_to_client += n - done;
-      break;
-    }
-    done += (size_t)w;
   }
-  pty->to_client += done;
-  return true;
-}
-
-static void use_client_bps(pty_bridge_t *pty, double bps) {
-  if (bps > 0.0 && bps != pty->bps) {
-    pty->bps = bps;
-    pty->cycles_per_bit = sim_bps_to_cycles_per_bit(bps);
-    bus_baud_changed(pty->bus);
+  if (released) {
+    send_to_client(pty, released);
   }
+  return moved;
 }
 
 /* Stamps newly queued chunks with their simulated arrival, then puts the due ones on the
@@ -310,15 +341,17 @@ static bool take_client(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx
     if (at < previous) {
       at = previous; /* keep the client's order */
     }
-    c->at = previous = at;
+    c->at = previous = usb_adapter_tx_write(&pty->adapter, at, c->len);
   }
   pty->chunk_stamped = pty->chunk_count;
 
   bool moved = false;
+  const uint32_t limit = usb_adapter_tx_queue_limit(&pty->adapter);
+  const double max_queued = limit ? (double)limit : (double)PTY_BRIDGE_MAX_QUEUED;
   while (pty->chunk_count && pty->chunks[pty->chunk_head].at <= now) {
     if (pty->last_from_client_end > now) {
       const double queued = (double)(pty->last_from_client_end - now) / (pty->cycles_per_bit * 10.0);
-      if (queued > PTY_BRIDGE_MAX_QUEUED) {
+      if (queued > max_queued) {
         break; /* the wire is far behind the client: wait, the inbox keeps the rest */
       }
     }
@@ -365,5 +398,7 @@ sim_cycles_t pty_bridge_next_input(const pty_bridge_t *pty) {
   pthread_mutex_unlock(lock);
   return at;
 }
+
+sim_cycles_t pty_bridge_next_output(const pty_bridge_t *pty) { return usb_adapter_next_release(&pty->adapter); }
 
 int pty_bridge_wake_fd(const pty_bridge_t *pty) { return pty->wake_pipe[0]; }

@@ -10,12 +10,17 @@
  *   the master, stamps each chunk with the wall clock (and the client's baud then) and queues
  *   it for the simulation thread. A USB adapter would have sent them already, so a client's
  *   tcflush(TCOFLUSH) before its next packet (pypot does that) must not find them unread.
- *   The simulation puts a chunk on the wire at the simulated time of its arrival
- *   (pty_bridge_pump), never earlier than the world's time, back to back at 10 bit times each
- *   (the adapter's UART).
- * - Bytes the servos send are written to the pty when their stop bit has ended on the wire
- *   (simulated time). The client never sees its own bytes (the adapter's receiver is off
- *   while it transmits).
+ *   The simulation puts a chunk on the wire at the simulated time of its arrival, or at the
+ *   adapter's next USB frame start (pty_bridge_pump), never earlier than the world's time,
+ *   back to back at 10 bit times each (the adapter's UART).
+ * - Bytes the servos send go through the USB adapter model (usb_adapter.h) when their stop
+ *   bit has ended on the wire (simulated time), and are written to the pty as the adapter
+ *   hands them to the host: one write per USB packet (wire: each byte as its stop bit ends,
+ *   the due ones in one write). The client never sees its own bytes (the adapter's receiver
+ *   is off while it transmits).
+ * - The adapter also decides when a client's write enters the wire (its USB frame), the baud
+ *   the bus sees for the client's termios baud (its divisor), and how much a client may
+ *   write ahead of the wire before its writes block.
  * A slave fd stays open in the bridge, so the master never reads EIO when a client closes. */
 #ifndef SIM_PTY_BRIDGE_H
 #define SIM_PTY_BRIDGE_H
@@ -27,8 +32,10 @@
 
 #include "bus.h"
 #include "sim_time.h"
+#include "usb_adapter.h"
 
-/* Client bytes not yet on the wire beyond which the bridge stops reading (the pty buffers). */
+/* Client bytes not yet on the wire beyond which the bridge stops reading (the pty buffers),
+ * with the wire adapter; the others bound it as usb_adapter_tx_queue_limit says. */
 #define PTY_BRIDGE_MAX_QUEUED 4096u
 
 typedef struct {
@@ -56,10 +63,13 @@ typedef struct {
   char device[128];
   char link_path[4096];
   bool linked;
-  double bps;
-  double cycles_per_bit;
+  double bps;            /* what the client set (termios) */
+  double actual_bps;     /* what the adapter's baud generator makes of it: the bus sees this */
+  double cycles_per_bit; /* of actual_bps */
+  usb_adapter_t adapter;
   pty_out_byte_t *out;
   size_t out_head, out_count, out_cap;
+  size_t out_fed; /* out[head .. +out_fed) are in the adapter, not yet sent to the host */
   sim_cycles_t last_from_client_end;
   /* Reader thread. */
   pthread_t reader;
@@ -83,11 +93,11 @@ typedef struct {
   uint64_t dropped_to_client; /* the client did not read and the pty buffer was full */
 } pty_bridge_t;
 
-/* Opens the pty (raw, initial speed initial_bps) and joins bus, whose scheduler's clock is
- * *now; creates link_path (a symlink to the device) when not NULL, replacing an existing
+/* Opens the pty (raw, initial speed initial_bps) behind the USB adapter `adapter` and joins
+ * bus, whose scheduler's clock is *now; creates link_path (a symlink to the device) when not NULL, replacing an existing
  * symlink. -1 with err set. */
-int pty_bridge_open(pty_bridge_t *pty, bus_t *bus, const sim_cycles_t *now, double initial_bps, const char *link_path,
-                    char *err, size_t err_len);
+int pty_bridge_open(pty_bridge_t *pty, bus_t *bus, const sim_cycles_t *now, double initial_bps,
+                    const usb_adapter_config_t *adapter, const char *link_path, char *err, size_t err_len);
 void pty_bridge_close(pty_bridge_t *pty);
 
 /* Writes every byte whose stop bit has ended by the world's time, then puts the client's
@@ -102,6 +112,11 @@ bool pty_bridge_pump(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx, d
 /* The simulated time at which the next queued client chunk enters the wire (already
  * stamped by a pump), or SIM_CYCLES_NEVER. Run the world no further before pumping again. */
 sim_cycles_t pty_bridge_next_input(const pty_bridge_t *pty);
+
+/* When the adapter next hands bytes it holds to the host (its latency timer), or
+ * SIM_CYCLES_NEVER. Run the world no further before pumping again, so they reach the client
+ * at that simulated time. */
+sim_cycles_t pty_bridge_next_output(const pty_bridge_t *pty);
 
 /* A descriptor that becomes readable when the client has written (for poll); drained by
  * pty_bridge_pump. */

@@ -43,6 +43,7 @@ typedef struct servo {
   char state_path[4096];
   bool ready; /* fully created */
   bool halted;
+  uint64_t watchdog_resets; /* resets by the firmware's watchdog (servo_run.c) */
   int halt_state; /* simavr cpu state when it stopped (cpu_Done, cpu_Crashed) */
   /* EEPROM watch and persistence (servo_eeprom.c). */
   uint8_t *eeprom; /* simavr's bytes */

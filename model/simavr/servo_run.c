@@ -7,6 +7,7 @@
 
 #include "quiet_timer.h"
 #include "servo_profile.h"
+#include "simavr_patch.h"
 #include "simavr_patch_run.h"
 
 /* An event of a timer module whose interrupts are all off cannot wake the core. */
@@ -71,6 +72,11 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
     }
     if (servo->probe_pc) {
       servo_probe_step(servo);
+    }
+    if (__builtin_expect(simavr_reset_requested(avr), 0)) {
+      servo_reset(servo); /* the watchdog expired (simavr_patch.h) */
+      servo->watchdog_resets++;
+      simavr_end_batches_at_timer_changes(avr);
     }
     if (avr->state == cpu_Done || avr->state == cpu_Crashed) {
       servo->halted = true;

@@ -80,6 +80,8 @@ void simavr_install_run_loop(avr_t *avr) {
   avr->run = run_one_step;
 }
 
+bool simavr_reset_requested(const avr_t *avr) { return avr->run != run_one_step; }
+
 /* ---- the external-interrupt module ---- */
 
 /* The context of simavr 1.6's level poll timer (avr_extint.c, private there; freed by the

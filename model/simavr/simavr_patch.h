@@ -64,6 +64,11 @@ unsigned simavr_cancel_timers_of(struct avr_t *avr, const void *owner);
  * core's clock itself (simavr's sleep would only jump the clock, one cycle late). */
 void simavr_install_run_loop(struct avr_t *avr);
 
+/* simavr 1.6's watchdog asks for its reset by replacing avr->run with a callback that calls
+ * avr_reset() (which puts the run callback back): the batches of servo_run.c never call
+ * avr->run, so they take the reset when this is true (servo_reset). */
+bool simavr_reset_requested(const struct avr_t *avr);
+
 /* ---- the external-interrupt module (avr_extint.c) ---- */
 
 /* simavr 1.6 polls a level-triggered INT0/INT1 pin on every cycle while it is low, whether or

@@ -5,7 +5,8 @@ The emulator is found through the environment:
                      when unset, the usual build folders are searched.
   AX12_FIRMWARE_DIR  folder of the AVR ELFs, passed on to the emulator (environment and its
                      --firmware-dir option when the emulator has one).
-  AX12_EMU_ARGS      extra arguments appended to every `serve` command line (optional).
+  AX12_EMU_ARGS      extra arguments appended to every `serve` command line (optional), e.g.
+                     `--adapter u2d2:16` to run a suite behind another USB adapter model.
   AX12_EMU_READY_TIMEOUT  seconds to wait for `ready:` (default 30).
 
 State folders live under pytest's temporary directory (`--basetemp DIR` moves them).

@@ -472,6 +472,98 @@ def test_factory_reset_after_every_eeprom_item_changed_is_answered_in_time(emula
     assert bus.read(1, T.CCW_ANGLE_LIMIT) == 1023
 
 
+def test_an_eeprom_write_is_answered_at_once_and_the_bus_goes_on_while_it_is_stored(emulators,
+                                                                                      bus_factory):
+    """docs/policy.md "Settings": an 8-byte WRITE of the EEPROM area (addresses 11..18) is
+    answered at its Return Delay Time, not after the 8 x 3.4 ms its bytes take to store; the
+    new values read back at once; READs of other servos and a broadcast SYNC_WRITE sent while
+    it is being stored are answered and applied; the values survive a restart."""
+    emu = emulators(ids="1-3")
+    bus = bus_factory(emu.path)
+    settings = [80, 55, 150, 0x00, 0x02, 1, 0x25, 0x25]   # addresses 11..18, all changed
+    t0 = time.perf_counter()
+    result, error = bus.ph.writeTxRx(bus.port, 1, T.HIGHEST_LIMIT_TEMP, len(settings), settings)
+    elapsed_ms = (time.perf_counter() - t0) * 1e3
+    assert (result, error) == (COMM_SUCCESS, 0), bus.ph.getTxRxResult(result)
+    # Storing first would take (8 changed bytes + 3) x 3.4 ms = 37 ms; the request and reply
+    # take 0.2 ms on the wire and 0.5 ms of Return Delay Time (250).
+    assert elapsed_ms < 15, f"answered after {elapsed_ms:.1f} ms"
+    data, result, error = bus.ph.readTxRx(bus.port, 1, T.HIGHEST_LIMIT_TEMP, len(settings))
+    assert (result, error) == (COMM_SUCCESS, 0)
+    assert list(data) == settings
+    # Meanwhile (the store is still under way): other servos answer, a SYNC_WRITE applies.
+    for i in (2, 3):
+        assert bus.read(i, T.ID) == i
+    sw = GroupSyncWrite(bus.port, bus.ph, T.LED, 1)
+    for i in (1, 2, 3):
+        assert sw.addParam(i, [1])
+    assert sw.txPacket() == COMM_SUCCESS
+    settle(bus.port)
+    for i in (1, 2, 3):
+        assert bus.read(i, T.LED) == 1, f"id {i}"
+    assert bus.read(1, T.STATUS_RETURN_LEVEL) == 1
+    # Stored: they survive a restart.
+    bus.close()
+    emu.restart()
+    bus = bus_factory(emu.path)
+    data, result, error = bus.ph.readTxRx(bus.port, 1, T.HIGHEST_LIMIT_TEMP, len(settings))
+    assert (result, error) == (COMM_SUCCESS, 0)
+    assert list(data) == settings
+
+
+# ---------------------------------------------------------------------------------------------
+# Motion as a robot waits for it: Moving, Overload
+# ---------------------------------------------------------------------------------------------
+
+def _wait_until_still(bus, dxl_id, timeout_s=3.0):
+    deadline = time.monotonic() + timeout_s
+    while bus.read(dxl_id, T.MOVING) != 0:
+        assert time.monotonic() < deadline, "still Moving"
+        time.sleep(0.02)
+
+
+def test_moving_reads_1_right_after_every_goal_write_600_counts_away(emulators, bus_factory):
+    """docs/policy.md "Motion semantics": the most common way to wait for a move, a goal
+    write followed by polling Moving until 0, never sees 0 on its first poll."""
+    bus = bus_factory(emulators(ids="1").path)
+    bus.write(1, T.TORQUE_ENABLE, 1)
+    _wait_until_still(bus, 1)
+    for move in range(10):
+        goal = 200 if bus.read(1, T.PRESENT_POSITION) > 500 else 800
+        bus.write(1, T.GOAL_POSITION, goal)
+        assert bus.read(1, T.MOVING) == 1, f"move {move}: Moving read 0 right after the goal write"
+        _wait_until_still(bus, 1)
+        assert abs(bus.read(1, T.PRESENT_POSITION) - goal) <= 3, f"move {move}"
+
+
+def test_a_load_of_twice_the_stall_torque_against_the_goal_trips_overload_and_shutdown(emulators,
+                                                                                      bus_factory):
+    """docs/policy.md "Alarms": a load of 3 N m (about twice the stall torque at 9.6 V) drags
+    the output backwards at full drive; after the 1000 ms window the Overload bit is set and
+    Alarm Shutdown (overload bit set) turns the torque off."""
+    bus = bus_factory(emulators(ids="1", extra=("--load-torque", "-3.0")).path)
+    bus.write(1, T.ALARM_SHUTDOWN, T.ERR_OVERLOAD | T.ERR_OVERHEATING)
+    bus.write(1, T.TORQUE_ENABLE, 1)
+    start = bus.read(1, T.PRESENT_POSITION)
+    bus.write(1, T.GOAL_POSITION, start + 300)
+    t0 = time.monotonic()
+    dragged = False
+    while True:
+        torque, result, error = bus.ph.read1ByteTxRx(bus.port, 1, T.TORQUE_ENABLE)
+        elapsed = time.monotonic() - t0
+        if result == COMM_SUCCESS and torque == 0:
+            break
+        assert elapsed < 4.0, "no overload shutdown within 4 s"
+        if result == COMM_SUCCESS and elapsed < 0.8:
+            assert not error & T.ERR_OVERLOAD, f"overload after {elapsed:.2f} s, before the window"
+            speed, result, _ = bus.ph.read2ByteTxRx(bus.port, 1, T.PRESENT_SPEED)
+            dragged = dragged or (result == COMM_SUCCESS and speed & 0x400 and speed & 0x3FF > 20)
+        time.sleep(0.05)
+    assert error & T.ERR_OVERLOAD, f"torque off without the Overload bit (error 0x{error:02x})"
+    assert elapsed >= 0.95, f"shut down after {elapsed:.2f} s, inside the 1000 ms window"
+    assert dragged, "the output was never seen dragged backwards (CW) past 20 units"
+
+
 # ---------------------------------------------------------------------------------------------
 # ID and baud changes
 # ---------------------------------------------------------------------------------------------

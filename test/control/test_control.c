@@ -5,6 +5,7 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 #include <cmocka.h>
 
 #include "dxl_control.h"
@@ -17,6 +18,8 @@ typedef struct {
   double position; /* counts, continuous */
   double counts_per_tick_per_drive; /* crude plant: speed proportional to drive */
   bool stalled;                     /* the output is held by the world */
+  double dragged_counts_per_tick;   /* when not 0: the world moves the output at this rate,
+                                       whatever the drive (a load stronger than the motor) */
   int16_t drive;
   bool led;
 } rig_t;
@@ -34,7 +37,9 @@ static void run_ms(rig_t *r, unsigned ms) {
   for (unsigned i = 0; i < ms; i++) {
     r->sensors.position_counts = (uint16_t)(r->position + 0.5);
     r->drive = dxl_control_tick(&r->control, &r->servo, &r->sensors, &r->led);
-    if (!r->stalled) {
+    if (r->dragged_counts_per_tick != 0.0) {
+      r->position += r->dragged_counts_per_tick;
+    } else if (!r->stalled) {
       r->position += r->drive * r->counts_per_tick_per_drive;
       if (r->position < 0) r->position = 0;
       if (r->position > 1023) r->position = 1023;
@@ -43,6 +48,21 @@ static void run_ms(rig_t *r, unsigned ms) {
 }
 
 static void write_u16(rig_t *r, uint8_t addr, uint16_t value) { ct_set_u16(r->servo.table, addr, value); }
+
+/* A WRITE packet to the servo through the core, as a client's write is committed (no tick). */
+static void write_packet(rig_t *r, uint8_t addr, const uint8_t *data, uint8_t len) {
+  uint8_t params[8];
+  params[0] = addr;
+  memcpy(&params[1], data, len);
+  const dxl_packet_t packet = {r->servo.table[CT_ADDR_ID], DXL_INST_WRITE, (uint8_t)(len + 1u), params, 0};
+  dxl_response_t response;
+  dxl_servo_handle(&r->servo, &packet, &response);
+  assert_int_equal(response.events, 0);
+}
+
+static void write_goal(rig_t *r, uint16_t goal) {
+  write_packet(r, CT_ADDR_GOAL_POSITION, (const uint8_t[]){(uint8_t)goal, (uint8_t)(goal >> 8)}, 2);
+}
 static uint16_t read_u16(rig_t *r, uint8_t addr) { return ct_get_u16(r->servo.table, addr); }
 
 static void duty_is_the_floored_share_of_255_for_every_drive(void **state) {
@@ -283,6 +303,104 @@ static void a_stall_at_the_torque_limit_is_an_overload_after_the_window(void **s
   assert_false(dxl_servo_conditions(&r.servo) & DXL_ERR_OVERLOAD);
 }
 
+/* docs/policy.md "Motion semantics": Moving is 1 in the first status a client can read after
+ * a WRITE that moves the goal past the compliance margin, before any control tick. */
+static void a_goal_write_reads_moving_at_once_before_any_tick(void **state) {
+  (void)state;
+  rig_t r;
+  rig_init(&r, 300);
+  write_packet(&r, CT_ADDR_TORQUE_ENABLE, (const uint8_t[]){1}, 1);
+  run_ms(&r, 20);
+  assert_int_equal(r.servo.table[CT_ADDR_MOVING], 0);
+  for (int i = 0; i < 10; i++) {
+    const uint16_t here = read_u16(&r, CT_ADDR_PRESENT_POSITION);
+    const uint16_t goal = here < 512 ? (uint16_t)(here + 600u) : (uint16_t)(here - 600u);
+    write_goal(&r, goal);
+    assert_int_equal(r.servo.table[CT_ADDR_MOVING], 1); /* no tick ran since the write */
+    run_ms(&r, 3000);
+    assert_int_equal(r.servo.table[CT_ADDR_MOVING], 0);
+  }
+}
+
+static void a_goal_write_within_the_margin_does_not_start_moving(void **state) {
+  (void)state;
+  rig_t r;
+  rig_init(&r, 300);
+  r.servo.table[CT_ADDR_TORQUE_ENABLE] = 1;
+  run_ms(&r, 20);
+  write_packet(&r, CT_ADDR_CW_COMPLIANCE_MARGIN, (const uint8_t[]){4, 4}, 2);
+  write_goal(&r, (uint16_t)(read_u16(&r, CT_ADDR_PRESENT_POSITION) + 4u + DXL_ARRIVAL_TOLERANCE_COUNTS));
+  assert_int_equal(r.servo.table[CT_ADDR_MOVING], 0);
+  write_goal(&r, (uint16_t)(read_u16(&r, CT_ADDR_PRESENT_POSITION) + 5u + DXL_ARRIVAL_TOLERANCE_COUNTS));
+  assert_int_equal(r.servo.table[CT_ADDR_MOVING], 1);
+}
+
+static void torque_off_reads_not_moving_and_no_load_at_once(void **state) {
+  (void)state;
+  rig_t r;
+  rig_init(&r, 300);
+  r.servo.table[CT_ADDR_TORQUE_ENABLE] = 1;
+  write_goal(&r, 900);
+  run_ms(&r, 50);
+  assert_int_equal(r.servo.table[CT_ADDR_MOVING], 1);
+  assert_int_not_equal(read_u16(&r, CT_ADDR_PRESENT_LOAD), 0);
+  write_packet(&r, CT_ADDR_TORQUE_ENABLE, (const uint8_t[]){0}, 1);
+  assert_int_equal(r.servo.table[CT_ADDR_MOVING], 0);
+  assert_int_equal(read_u16(&r, CT_ADDR_PRESENT_LOAD), 0);
+  write_goal(&r, 100); /* torque off: a goal write does not move it */
+  assert_int_equal(r.servo.table[CT_ADDR_MOVING], 0);
+}
+
+static void a_wheel_speed_write_reads_moving_at_once_unless_torque_limit_is_0(void **state) {
+  (void)state;
+  rig_t r;
+  rig_init(&r, 300);
+  write_packet(&r, CT_ADDR_CW_ANGLE_LIMIT, (const uint8_t[]){0, 0, 0, 0}, 4); /* wheel mode */
+  write_packet(&r, CT_ADDR_TORQUE_ENABLE, (const uint8_t[]){1}, 1);
+  write_packet(&r, CT_ADDR_TORQUE_LIMIT, (const uint8_t[]){0, 0}, 2);
+  write_packet(&r, CT_ADDR_MOVING_SPEED, (const uint8_t[]){0x00, 0x06}, 2); /* 512 CW */
+  assert_int_equal(r.servo.table[CT_ADDR_MOVING], 0);
+  write_packet(&r, CT_ADDR_TORQUE_LIMIT, (const uint8_t[]){0xFF, 0x03}, 2);
+  assert_int_equal(r.servo.table[CT_ADDR_MOVING], 1);
+}
+
+/* docs/policy.md "Motion semantics": leaving wheel mode keeps Moving Speed's speed and drops
+ * its direction bit, so the item stays inside the joint range 0..1023. */
+static void leaving_wheel_mode_keeps_moving_speed_inside_the_joint_range(void **state) {
+  (void)state;
+  rig_t r;
+  rig_init(&r, 300);
+  write_packet(&r, CT_ADDR_CW_ANGLE_LIMIT, (const uint8_t[]){0, 0, 0, 0}, 4);
+  write_packet(&r, CT_ADDR_MOVING_SPEED, (const uint8_t[]){0xFF, 0x07}, 2); /* 2047: 1023 CW */
+  assert_int_equal(read_u16(&r, CT_ADDR_MOVING_SPEED), 2047);
+  write_packet(&r, CT_ADDR_CCW_ANGLE_LIMIT, (const uint8_t[]){0xFF, 0x03}, 2); /* joint mode */
+  assert_int_equal(read_u16(&r, CT_ADDR_MOVING_SPEED), 1023);
+  write_packet(&r, CT_ADDR_CCW_ANGLE_LIMIT, (const uint8_t[]){0, 0}, 2);
+  write_packet(&r, CT_ADDR_MOVING_SPEED, (const uint8_t[]){0x2C, 0x05}, 2); /* 1324: 300 CW */
+  write_packet(&r, CT_ADDR_CW_ANGLE_LIMIT, (const uint8_t[]){1, 0}, 2);
+  assert_int_equal(read_u16(&r, CT_ADDR_MOVING_SPEED), 300);
+}
+
+/* docs/policy.md "Alarms": a load that drags the output backwards while the drive is at Torque
+ * Limit is an overload, like a stall. */
+static void a_load_dragging_the_output_backwards_is_an_overload(void **state) {
+  (void)state;
+  rig_t r;
+  rig_init(&r, 700);
+  r.servo.table[CT_ADDR_ALARM_SHUTDOWN] = 0;
+  r.servo.table[CT_ADDR_TORQUE_ENABLE] = 1;
+  write_goal(&r, 900);
+  r.dragged_counts_per_tick = -0.3; /* about 30 rpm the wrong way */
+  run_ms(&r, 500);
+  assert_true(r.drive > 0);
+  assert_true(read_u16(&r, CT_ADDR_PRESENT_SPEED) & 0x400u); /* moving CW: away from the goal */
+  run_ms(&r, DXL_OVERLOAD_WINDOW_MS - 400);
+  assert_true(dxl_servo_conditions(&r.servo) & DXL_ERR_OVERLOAD);
+  r.dragged_counts_per_tick = 0.0; /* the load goes: it reaches the goal, the overload ends */
+  run_ms(&r, 3000);
+  assert_false(dxl_servo_conditions(&r.servo) & DXL_ERR_OVERLOAD);
+}
+
 static void an_overload_shutdown_stays_latched_until_torque_enable_is_written(void **state) {
   (void)state;
   rig_t r;
@@ -352,6 +470,12 @@ int main(void) {
       cmocka_unit_test(an_overload_shutdown_stays_latched_until_torque_enable_is_written),
       cmocka_unit_test(present_speed_reads_the_rate_and_zero_at_rest),
       cmocka_unit_test(events_blink_the_led_when_their_bit_is_set),
+      cmocka_unit_test(a_goal_write_reads_moving_at_once_before_any_tick),
+      cmocka_unit_test(a_goal_write_within_the_margin_does_not_start_moving),
+      cmocka_unit_test(torque_off_reads_not_moving_and_no_load_at_once),
+      cmocka_unit_test(a_wheel_speed_write_reads_moving_at_once_unless_torque_limit_is_0),
+      cmocka_unit_test(leaving_wheel_mode_keeps_moving_speed_inside_the_joint_range),
+      cmocka_unit_test(a_load_dragging_the_output_backwards_is_an_overload),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }

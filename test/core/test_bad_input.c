@@ -210,7 +210,9 @@ static void flip_one(const loaded_conv_t *lc, size_t s, size_t byte, unsigned bi
    * and each packet that ran must be a byte-exact valid packet of what was sent, other than
    * the original. The bus must then be exactly as if only those packets had been sent. */
   stats->reframed_and_ran++;
-  if (!(byte == 0 || byte == 1 || byte == 2 || byte == 3)) {
+  /* A Protocol 2.0 frame (FF FF FD 00 ID LEN_L LEN_H) is framed by its first seven bytes. */
+  const bool protocol2 = step->send_len >= 7 && step->send[2] == 0xFD && step->send[3] == 0x00;
+  if (byte > (protocol2 ? 6u : 3u)) {
     fail_msg("%s: a packet ran after a flip outside the header, ID and LENGTH", context);
   }
   for (size_t r = 0; r < log.count; r++) {

@@ -80,16 +80,20 @@ static void test_a_slot_is_sequence_table_and_crc_of_format_sequence_and_table(v
   assert_true(dxl_image_slot_is_valid(slot));
 }
 
-static void test_a_new_image_has_slot_0_and_a_blank_slot_1(void **state) {
+static void test_a_new_image_holds_the_settings_in_both_slots_slot_1_newest(void **state) {
   (void)state;
   uint8_t area[CT_EEPROM_SIZE];
   factory_area(area);
   uint8_t image[DXL_IMAGE_BYTES];
   dxl_image_build(image, area);
-  assert_int_equal(dxl_image_newest_slot(image), 0);
-  assert_ptr_equal(dxl_image_settings(image), &image[DXL_IMAGE_OFS_TABLE]);
-  for (size_t i = DXL_IMAGE_SLOT_BYTES; i < DXL_IMAGE_BYTES; i++) {
-    assert_int_equal(image[i], 0xFF);
+  assert_int_equal(dxl_image_newest_slot(image), 1);
+  assert_ptr_equal(dxl_image_settings(image), &image[DXL_IMAGE_SLOT_STRIDE + DXL_IMAGE_OFS_TABLE]);
+  assert_true(dxl_image_slot_is_valid(image));
+  assert_memory_equal(&image[DXL_IMAGE_OFS_TABLE], area, CT_EEPROM_SIZE);
+  assert_int_equal(image[DXL_IMAGE_OFS_SEQUENCE], 0);
+  assert_int_equal(image[DXL_IMAGE_SLOT_STRIDE + DXL_IMAGE_OFS_SEQUENCE], 1);
+  for (size_t i = DXL_IMAGE_SLOT_BYTES; i < DXL_IMAGE_SLOT_STRIDE; i++) {
+    assert_int_equal(image[i], 0xFF); /* the gap between the slots stays blank */
   }
 }
 
@@ -276,7 +280,7 @@ int main(void) {
       cmocka_unit_test(test_crc16_of_the_standard_check_string_is_29b1),
       cmocka_unit_test(test_crc16_agrees_with_an_independent_implementation),
       cmocka_unit_test(test_a_slot_is_sequence_table_and_crc_of_format_sequence_and_table),
-      cmocka_unit_test(test_a_new_image_has_slot_0_and_a_blank_slot_1),
+      cmocka_unit_test(test_a_new_image_holds_the_settings_in_both_slots_slot_1_newest),
       cmocka_unit_test(test_an_image_of_the_previous_format_is_invalid),
       cmocka_unit_test(test_every_change_of_one_byte_of_a_slot_is_detected),
       cmocka_unit_test(test_erased_and_zeroed_eeprom_hold_no_settings),

@@ -437,6 +437,56 @@ static void test_checksum_matches_the_manual_examples(void **state) {
   assert_int_equal(dxl_checksum(NULL, 0), 0xFF);
 }
 
+/* docs/policy.md "Framing and bus": a Protocol 2.0 frame (FF FF FD 00 ID LEN_L LEN_H ...) is
+ * skipped whole by its 16-bit length: a whole 1.0 PING in its data is not a packet; the 1.0
+ * packet after it is. Byte by byte and in one batch. */
+static const uint8_t protocol2_write_with_a_ping_inside[] = {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x0B, 0x00, 0x03, 0x74,
+                                                             0x00, 0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB, 0x2F, 0x8E};
+
+static void test_a_protocol2_frame_is_skipped_whole_with_a_1_0_packet_inside(void **state) {
+  (void)state;
+  finder_run_t run;
+  given_finder(&run, 0);
+  when_bytes_arrive(&run, protocol2_write_with_a_ping_inside, sizeof protocol2_write_with_a_ping_inside);
+  assert_int_equal(run.count, 0);
+  ARRIVE(&run, 0xFF, 0xFF, 0x03, 0x02, 0x01, 0xF9);
+  assert_int_equal(run.count, 1);
+  then_found_packet(&run, 0, 3, DXL_INST_PING, 0);
+
+  given_finder(&run, 0);
+  uint16_t room;
+  uint8_t *slot = dxl_finder_push_slot(&run.finder, &room, 0);
+  memcpy(slot, protocol2_write_with_a_ping_inside, sizeof protocol2_write_with_a_ping_inside);
+  memcpy(slot + sizeof protocol2_write_with_a_ping_inside, (const uint8_t[]){0xFF, 0xFF, 0x03, 0x02, 0x01, 0xF9}, 6);
+  dxl_finder_pushed(&run.finder, sizeof protocol2_write_with_a_ping_inside + 6u, 0);
+  take_results(&run);
+  assert_int_equal(run.count, 1);
+  then_found_packet(&run, 0, 3, DXL_INST_PING, 0);
+}
+
+/* A 2.0 frame longer than the finder's buffer (LEN 0x0200) is skipped as it comes; one cut by a
+ * gap ends with it, and the next 1.0 packet is found. */
+static void test_a_long_or_interrupted_protocol2_frame_is_skipped_and_the_next_packet_found(void **state) {
+  (void)state;
+  finder_run_t run;
+  given_finder(&run, 0);
+  ARRIVE(&run, 0xFF, 0xFF, 0xFD, 0x00, 0x05, 0x00, 0x02);
+  for (unsigned i = 0; i < 0x200u; i++) {
+    ARRIVE(&run, (i & 1u) ? 0xFF : 0x05); /* FF 05 FF 05 ...: 1.0 headers if looked at */
+  }
+  ARRIVE(&run, 0xFF, 0xFF, 0x03, 0x02, 0x01, 0xF9);
+  assert_int_equal(run.count, 1);
+  then_found_packet(&run, 0, 3, DXL_INST_PING, 0);
+
+  given_finder(&run, 0);
+  ARRIVE(&run, 0xFF, 0xFF, 0xFD, 0x00, 0x05, 0x40, 0x00, 0x03, 0xFF, 0xFF);
+  when_line_idles_until(&run, (uint16_t)(DXL_PACKET_GAP_TIMEOUT_MS + 1u));
+  ARRIVE(&run, 0xFF, 0xFF, 0x03, 0x02, 0x01, 0xF9);
+  assert_int_equal(run.count, 1);
+  then_found_packet(&run, 0, 3, DXL_INST_PING, 0);
+  assert_true(dxl_finder_idle(&run.finder));
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_a_ping_is_found_when_its_last_byte_arrives),
@@ -460,6 +510,8 @@ int main(void) {
       cmocka_unit_test(test_the_candidate_describes_the_packet_before_its_checksum),
       cmocka_unit_test(test_batches_find_what_single_bytes_find),
       cmocka_unit_test(test_checksum_matches_the_manual_examples),
+      cmocka_unit_test(test_a_protocol2_frame_is_skipped_whole_with_a_1_0_packet_inside),
+      cmocka_unit_test(test_a_long_or_interrupted_protocol2_frame_is_skipped_and_the_next_packet_found),
   };
   return cmocka_run_group_tests_name("packet finder (" AX12_PROFILE_NAME ")", tests, NULL, NULL);
 }

@@ -61,6 +61,9 @@ void harness_close(harness_t *h) {
   for (size_t i = 0; i < h->world->servo_count; i++) {
     assert_int_equal(h->world->servos[i]->board.link.rx_late, 0);
   }
+  /* A clean stop, as the emulator's on SIGTERM: EEPROM writes under way are finished first
+   * (tests of power cuts capture the EEPROM instead of closing). */
+  assert_int_equal(world_settle_and_persist(h->world, sim_ms(HARNESS_SETTLE_MS)), 0);
   master_destroy(h->master);
   world_destroy(h->world);
   memset(h, 0, sizeof(*h));
@@ -98,6 +101,9 @@ void harness_boot(harness_t *h, unsigned settle_ms) {
 }
 
 void harness_power_cycle(harness_t *h) {
+  /* Switched off once the EEPROM writes under way have finished, as a person would (a cut in
+   * the middle of one: sim_power_cut). */
+  assert_int_equal(world_settle_and_persist(h->world, sim_ms(HARNESS_SETTLE_MS)), 0);
   for (size_t i = 0; i < h->world->servo_count; i++) {
     servo_power_cycle(h->world->servos[i]);
   }

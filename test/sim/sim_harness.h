@@ -21,8 +21,9 @@
 #include "world.h"
 
 #define HARNESS_MAX_REPLY 1024u
-/* Longest a reply may take to start: a RESET rewrites up to the whole EEPROM image (26 bytes
- * x 3.4 ms) before it answers. */
+/* Longest a reply may take to start before the exchange gives up: far above any reply's
+ * (Return Delay Time 254 is 508 us; no reply waits for the EEPROM), so a late reply shows as
+ * late in the test's timing checks rather than as missing. */
 #define HARNESS_REPLY_TIMEOUT_MS 150u
 /* Silence that ends an exchange once bytes came back. */
 #define HARNESS_QUIET_US 2000u
@@ -44,6 +45,9 @@ const char *harness_elf_path(const char *profile, const char *mcu);
  * Skips the test (cmocka skip) when the ELF is missing and the firmware is not part of the
  * build, fails it when it should be there. */
 void harness_open(harness_t *h, const char *profile, const char *mcu, unsigned master_baud);
+/* Stops cleanly: runs the servos until their EEPROM is quiet (at most HARNESS_SETTLE_MS of
+ * simulated time, as the emulator does on SIGTERM) and writes their state files. */
+#define HARNESS_SETTLE_MS 500u
 void harness_close(harness_t *h);
 
 /* Adds a servo for slot id (state file in state_dir when not NULL) and returns it. */
@@ -52,7 +56,8 @@ servo_t *harness_add_servo(harness_t *h, uint8_t id, uint8_t baud_reg, const cha
 /* Runs until every servo listens, plus settle_ms (power-up work). Fails after 1 s. */
 void harness_boot(harness_t *h, unsigned settle_ms);
 
-/* Every servo's MCU restarts (EEPROM kept, RAM not), then boots. */
+/* Every servo's MCU restarts (EEPROM kept, RAM not), then boots; the EEPROM writes under way
+ * finish first (at most HARNESS_SETTLE_MS). */
 void harness_power_cycle(harness_t *h);
 
 /* Sends bytes and collects what comes back: until expect bytes came and the line was quiet

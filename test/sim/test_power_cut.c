@@ -4,7 +4,8 @@
  * writes (a cut between two bytes) and with that byte torn (a cut in the byte: it reads back
  * as garbage), and a new servo boots from each capture. Each must answer with exactly the
  * settings before the packet or after it (docs/policy.md "Settings"): at the old ID and baud
- * or at the new ones, never a mix, never factory defaults. */
+ * or at the new ones, never a mix, never factory defaults. And a second EEPROM WRITE during a
+ * store is merged into it. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -14,12 +15,13 @@
 
 #include <cmocka.h>
 
+#include "dxl_image.h"
 #include "dxl_protocol.h"
 #include "dxl_table.h"
 #include "eeprom_store.h"
 #include "sim_harness.h"
 
-#define MCU "atmega328p"
+#define MCU "atmega88"
 #define STATUS_LEN(params) (6u + (params))
 #define MAX_CAPTURES 64u
 #define EEPROM_BYTES 512u
@@ -198,11 +200,45 @@ static void test_a_cut_anywhere_in_a_reset_boots_the_settings_before_it_or_the_d
   print_message("%u cuts, 0 failures\n", cuts);
 }
 
+/* docs/policy.md "Settings": a second EEPROM WRITE while the first is being stored is merged
+ * into the store, never lost: both values survive a restart once stored, and each is answered
+ * at once. */
+static void test_a_second_eeprom_write_during_a_store_is_merged(void **state) {
+  (void)state;
+  char dir[256];
+  harness_tempdir(dir, sizeof dir);
+  harness_t h;
+  harness_open(&h, "ax12", MCU, 1);
+  servo_t *servo = harness_add_servo(&h, 1, 1, dir);
+  harness_boot(&h, 5);
+  uint8_t reply[64];
+  uint8_t packet[16];
+  size_t len = packet_encode(packet, 1, DXL_INST_WRITE, HP(CT_ADDR_RETURN_DELAY_TIME, 10, 0x00, 0x01));
+  assert_int_equal(harness_exchange(&h, packet, len, STATUS_LEN(0), reply, sizeof reply), STATUS_LEN(0));
+  const uint64_t writes_before = servo->eeprom_writes;
+  len = packet_encode(packet, 1, DXL_INST_WRITE, HP(CT_ADDR_ALARM_LED, 0x25, 0x25));
+  assert_int_equal(harness_exchange(&h, packet, len, STATUS_LEN(0), reply, sizeof reply), STATUS_LEN(0));
+  assert_true(servo->eeprom_writes - writes_before < 3u); /* the first store still under way */
+  world_run_until(h.world, h.world->now + sim_ms(200));
+  /* A cut now (no settling): the EEPROM as it is holds both writes. */
+  static uint8_t eeprom[EEPROM_BYTES];
+  memcpy(eeprom, servo->eeprom, EEPROM_BYTES);
+  harness_close(&h);
+  const uint8_t *settings = dxl_image_settings(eeprom);
+  assert_non_null(settings);
+  assert_int_equal(settings[CT_ADDR_RETURN_DELAY_TIME], 10);
+  assert_int_equal(settings[CT_ADDR_CW_ANGLE_LIMIT + 1], 0x01);
+  assert_int_equal(settings[CT_ADDR_ALARM_LED], 0x25);
+  assert_int_equal(settings[CT_ADDR_ALARM_SHUTDOWN], 0x25);
+  harness_rmdir(dir);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_a_cut_anywhere_in_a_write_of_id_baud_and_delay_boots_old_or_new),
       cmocka_unit_test(test_a_cut_anywhere_in_an_eight_byte_write_boots_old_or_new),
       cmocka_unit_test(test_a_cut_anywhere_in_a_reset_boots_the_settings_before_it_or_the_defaults),
+      cmocka_unit_test(test_a_second_eeprom_write_during_a_store_is_merged),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }

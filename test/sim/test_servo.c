@@ -91,6 +91,27 @@ static wire_timing_t request_timing(harness_t *h, uint8_t id, uint8_t instructio
   return t;
 }
 
+/* docs/policy.md "Framing and bus": a Protocol 2.0 frame is skipped whole, by the RX
+ * interrupt's sniff and the finder alike: a whole 1.0 PING of this servo in its data is not
+ * answered (at once, and after a gap), and the 1.0 PING after it is. */
+static void test_a_protocol2_frame_with_a_1_0_ping_inside_is_not_answered(void **state) {
+  (void)state;
+  harness_t h;
+  open_one(&h, NULL);
+  static const uint8_t frame[] = {0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x0B, 0x00, 0x03, 0x74,
+                                  0x00, 0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB, 0x2F, 0x8E};
+  uint8_t reply[64];
+  for (int round = 0; round < 3; round++) {
+    assert_int_equal(harness_exchange(&h, frame, sizeof frame, 0, reply, sizeof reply), 0);
+    const size_t n = harness_request(&h, 1, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0), reply);
+    expect_bytes(reply, n, ping_reply_id1, sizeof(ping_reply_id1));
+  }
+  assert_int_equal(harness_exchange(&h, frame, sizeof frame, 0, reply, sizeof reply), 0);
+  world_run_until(h.world, h.world->now + sim_ms(150)); /* past the gap: nothing either */
+  assert_int_equal(harness_exchange(&h, NULL, 0, 0, reply, sizeof reply), 0);
+  harness_close(&h);
+}
+
 static void test_ping_is_answered_on_the_wire(void **state) {
   (void)state;
   harness_t h;
@@ -305,6 +326,61 @@ static void test_settings_survive_a_restart(void **state) {
   harness_rmdir(dir);
 }
 
+/* docs/policy.md "Power-up": an image whose check passes but whose items are out of range
+ * (crafted, or a 16-bit value torn under a matching check) boots with those items at their
+ * factory defaults and the others as stored, and never drives the motor unasked. */
+static void test_a_crafted_image_boots_with_its_items_in_range_and_the_motor_still(void **state) {
+  (void)state;
+  char dir[256];
+  harness_tempdir(dir, sizeof(dir));
+  char path[512];
+  eeprom_store_path(path, sizeof(path), dir, 1);
+  uint8_t eeprom[512];
+  eeprom_store_seed(eeprom, sizeof(eeprom), EEPROM_PROFILE_AX12, 1, 1);
+  uint8_t area[CT_EEPROM_SIZE];
+  memcpy(area, dxl_image_settings(eeprom), CT_EEPROM_SIZE);
+  area[CT_ADDR_ID] = 254;
+  area[CT_ADDR_BAUD_RATE] = 255;
+  area[CT_ADDR_RETURN_DELAY_TIME] = 255;
+  area[CT_ADDR_CW_ANGLE_LIMIT] = 0x00; /* 54784 */
+  area[CT_ADDR_CW_ANGLE_LIMIT + 1] = 0xD6;
+  area[CT_ADDR_CCW_ANGLE_LIMIT + 1] = 0x07; /* 1023 torn to 2047 */
+  area[CT_ADDR_STATUS_RETURN_LEVEL] = 9;
+  area[CT_ADDR_ALARM_LED] = 0x25; /* in range: kept */
+  dxl_image_build(eeprom, area);
+  char err[256];
+  assert_int_equal(eeprom_store_save(path, eeprom, sizeof(eeprom), err, sizeof(err)), 0);
+
+  harness_t h;
+  harness_open(&h, "ax12", "atmega88", 1);
+  harness_add_servo(&h, 1, 1, dir);
+  harness_boot(&h, 5);
+  uint8_t reply[64];
+  const size_t n = harness_request(&h, 1, DXL_INST_READ, HP(0, CT_EEPROM_SIZE), STATUS_LEN(CT_EEPROM_SIZE), reply);
+  assert_int_equal(n, STATUS_LEN(CT_EEPROM_SIZE));
+  const uint8_t *t = &reply[5];
+  assert_int_equal(t[CT_ADDR_ID], 1);
+  assert_int_equal(t[CT_ADDR_BAUD_RATE], 1);
+  assert_int_equal(t[CT_ADDR_RETURN_DELAY_TIME], 250);
+  assert_int_equal(t[CT_ADDR_CW_ANGLE_LIMIT] | (t[CT_ADDR_CW_ANGLE_LIMIT + 1] << 8), 0);
+  assert_int_equal(t[CT_ADDR_CCW_ANGLE_LIMIT] | (t[CT_ADDR_CCW_ANGLE_LIMIT + 1] << 8), 1023);
+  assert_int_equal(t[CT_ADDR_STATUS_RETURN_LEVEL], 2);
+  assert_int_equal(t[CT_ADDR_ALARM_LED], 0x25);
+  /* Half a second later: torque off, no drive, no motion. */
+  const uint16_t start = (uint16_t)(read_byte(&h, 1, CT_ADDR_PRESENT_POSITION) |
+                                    (read_byte(&h, 1, CT_ADDR_PRESENT_POSITION + 1) << 8));
+  world_run_until(h.world, h.world->now + sim_ms(500));
+  assert_int_equal(read_byte(&h, 1, CT_ADDR_TORQUE_ENABLE), 0);
+  assert_int_equal(read_byte(&h, 1, CT_ADDR_PRESENT_LOAD), 0);
+  assert_int_equal(read_byte(&h, 1, CT_ADDR_PRESENT_LOAD + 1), 0);
+  assert_int_equal(read_byte(&h, 1, CT_ADDR_MOVING), 0);
+  const uint16_t end = (uint16_t)(read_byte(&h, 1, CT_ADDR_PRESENT_POSITION) |
+                                  (read_byte(&h, 1, CT_ADDR_PRESENT_POSITION + 1) << 8));
+  assert_true(end + 2u >= start && end <= start + 2u);
+  harness_close(&h);
+  harness_rmdir(dir);
+}
+
 static void test_a_corrupt_image_boots_to_factory_defaults_and_is_repaired(void **state) {
   (void)state;
   char dir[256];
@@ -313,8 +389,11 @@ static void test_a_corrupt_image_boots_to_factory_defaults_and_is_repaired(void 
   eeprom_store_path(path, sizeof(path), dir, 1);
   uint8_t eeprom[512];
   eeprom_store_seed(eeprom, sizeof(eeprom), EEPROM_PROFILE_AX12, 7, 1);
-  eeprom[DXL_IMAGE_OFS_TABLE + 5] = 20;    /* RDT 20 ... */
-  eeprom[DXL_IMAGE_OFS_CRC] ^= 0x5A;       /* ... under a broken CRC */
+  for (unsigned slot = 0; slot < DXL_IMAGE_SLOTS; slot++) {
+    uint8_t *const bytes = &eeprom[dxl_image_slot_offset((uint8_t)slot)];
+    bytes[DXL_IMAGE_OFS_TABLE + 5] = 20; /* RDT 20 ... */
+    bytes[DXL_IMAGE_OFS_CRC] ^= 0x5A;    /* ... under a broken CRC, in both slots */
+  }
   char err[256];
   assert_int_equal(eeprom_store_save(path, eeprom, sizeof(eeprom), err, sizeof(err)), 0);
 
@@ -593,6 +672,7 @@ int main(void) {
       cmocka_unit_test(test_reset_is_answered_with_the_old_id_then_factory_settings_apply),
       cmocka_unit_test(test_settings_survive_a_restart),
       cmocka_unit_test(test_a_corrupt_image_boots_to_factory_defaults_and_is_repaired),
+      cmocka_unit_test(test_a_crafted_image_boots_with_its_items_in_range_and_the_motor_still),
       cmocka_unit_test(test_a_fresh_state_file_is_seeded_with_the_id_and_baud_asked_for),
       cmocka_unit_test(test_servos_on_one_wire_answer_their_own_ids_and_collide_on_broadcast_ping),
       cmocka_unit_test(test_a_sync_write_to_30_servos_at_1_mbps_is_applied),
@@ -600,6 +680,7 @@ int main(void) {
       cmocka_unit_test(test_another_servos_packet_is_skipped_by_its_length),
       cmocka_unit_test(test_the_sniff_reads_a_header_as_the_finder_would),
       cmocka_unit_test(test_every_firmware_variant_boots_and_answers),
+      cmocka_unit_test(test_a_protocol2_frame_with_a_1_0_ping_inside_is_not_answered),
   };
   return cmocka_run_group_tests_name("sim servo (firmware ELF)", tests, NULL, NULL);
 }

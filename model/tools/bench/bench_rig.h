@@ -17,7 +17,8 @@
 
 #define US(x) ((sim_cycles_t)(x) * SIM_CYCLES_PER_US)
 #define MS(x) US((x) * 1000u)
-/* Longest a reply may take to start: a RESET rewrites the EEPROM image before it answers. */
+/* Longest a reply may take to start before a rig gives up: far above any reply (Return Delay
+ * Time 254 is 508 us), so a late reply is measured as late rather than lost. */
 #define REPLY_TIMEOUT MS(150)
 
 /* The ELF every rig runs (argv[2]); its MCU and profile are read from its name. */

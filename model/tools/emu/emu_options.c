@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "bus_noise.h"
+#include "elf_check.h"
 #include "state_dir.h"
 
 #ifndef AX12_DEFAULT_FIRMWARE_DIR
@@ -35,7 +36,15 @@ static const char usage_text[] =
     "  --fast              no throttling: simulate as fast as the host allows\n"
     "  --elf PATH          firmware ELF (default: <firmware-dir>/ax12-<profile>-<mcu>.elf)\n"
     "  --firmware-dir DIR  where the firmware ELFs are (default: the build's)\n"
-    "  --stats             print bus and timing statistics to stderr on exit\n"
+    "  --adapter KIND[:MS] the USB serial adapter between the client and the bus:\n"
+    "                      u2d2 (default; FT232H class, high speed), usb2dynamixel (FT232R,\n"
+    "                      full speed) or wire (no adapter: each byte as it leaves the wire).\n"
+    "                      MS is the chip's latency timer, 1..255 (default 1, as ROBOTIS\n"
+    "                      advises; Linux's default is 16): bytes from the bus reach the\n"
+    "                      client when a USB packet fills or the timer expires; a write\n"
+    "                      reaches the wire at the next USB frame; the bus sees the baud\n"
+    "                      the chip makes of the client's (docs/emulator.md)\n"
+    "  --stats             print bus, adapter and timing statistics to stderr on exit\n"
     "  --bit-error-rate RATE\n"
     "                      noise: every bit on the wire (start, 8 data, stop) flips with\n"
     "                      probability RATE, 0 <= RATE < 1 (default 0: none), both ways;\n"
@@ -100,7 +109,7 @@ static bool parse_bit_error_rate(const char *text, double *rate) {
 
 int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
   enum { OPT_IDS = 256, OPT_LINK, OPT_STATE_DIR, OPT_PROFILE, OPT_MCU, OPT_BAUD, OPT_REALTIME, OPT_FAST, OPT_ELF,
-         OPT_FIRMWARE_DIR, OPT_STATS, OPT_BIT_ERROR_RATE, OPT_SEED };
+         OPT_FIRMWARE_DIR, OPT_STATS, OPT_BIT_ERROR_RATE, OPT_SEED, OPT_ADAPTER };
   static const struct option long_options[] = {
       {"ids", required_argument, NULL, OPT_IDS},
       {"link", required_argument, NULL, OPT_LINK},
@@ -115,6 +124,7 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       {"stats", no_argument, NULL, OPT_STATS},
       {"bit-error-rate", required_argument, NULL, OPT_BIT_ERROR_RATE},
       {"seed", required_argument, NULL, OPT_SEED},
+      {"adapter", required_argument, NULL, OPT_ADAPTER},
       PLANT_LONG_OPTIONS,
       {"help", no_argument, NULL, 'h'},
       {NULL, 0, NULL, 0},
@@ -128,6 +138,7 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
   o->realtime = true;
   o->firmware_dir = AX12_DEFAULT_FIRMWARE_DIR;
   o->noise_seed = BUS_NOISE_DEFAULT_SEED;
+  o->adapter = (usb_adapter_config_t){.kind = USB_ADAPTER_DEFAULT_KIND, .latency_ms = USB_ADAPTER_DEFAULT_LATENCY_MS};
   state_dir_default(o->state_dir, sizeof(o->state_dir));
   plant_options_default(&o->world);
   opterr = 0;
@@ -190,6 +201,11 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
         return fail_usage("bad --seed '%s': a whole number 0..18446744073709551615", optarg);
       }
       break;
+    case OPT_ADAPTER:
+      if (!usb_adapter_parse(optarg, &o->adapter, err, sizeof(err))) {
+        return fail_usage("--adapter: %s", err);
+      }
+      break;
     case 'h':
       emu_print_usage(stdout);
       return 0;
@@ -217,6 +233,10 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
   }
   if (access(o->elf, R_OK) != 0) {
     fprintf(stderr, "ax12-emu: firmware ELF %s: %s (build the firmware, or pass --elf)\n", o->elf, strerror(errno));
+    return 1;
+  }
+  if (!elf_check_avr(o->elf, o->mcu, err, sizeof(err))) {
+    fprintf(stderr, "ax12-emu: %s\n", err);
     return 1;
   }
   return -1;

@@ -13,6 +13,7 @@
 #include "eeprom_store.h"
 #include "id_list.h"
 #include "plant_options.h"
+#include "usb_adapter.h"
 
 /* Exit status for bad command-line input. */
 #define EMU_EXIT_USAGE 2
@@ -31,6 +32,7 @@ typedef struct {
   bool stats;
   double bit_error_rate; /* per bit on the wire, [0, 1) */
   uint64_t noise_seed;
+  usb_adapter_config_t adapter; /* between the pty and the bus (--adapter) */
   plant_options_t world;
 } serve_options_t;
 

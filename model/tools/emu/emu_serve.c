@@ -2,6 +2,7 @@
 #define _GNU_SOURCE
 #include "emu_serve.h"
 
+#include <errno.h>
 #include <limits.h>
 #include <signal.h>
 #include <stdio.h>
@@ -12,6 +13,7 @@
 #include "servo.h"
 #include "servo_eeprom.h"
 #include "servo_plant.h"
+#include "state_lock.h"
 #include "world.h"
 
 #define SLICE_US 100u
@@ -27,6 +29,31 @@ static void on_signal(int sig) {
   stop_requested = 1;
 }
 
+/* The adapter's figures: USB packets to the host and their size, latency-timer waits, client
+ * writes and their frame waits, the baud the bus saw. */
+static void print_adapter_stats(const pty_bridge_t *pty) {
+  const usb_adapter_t *a = &pty->adapter;
+  const usb_adapter_stats_t *st = &a->stats;
+  char name[96];
+  usb_adapter_describe(&a->config, name, sizeof(name));
+  if (a->config.kind == USB_ADAPTER_WIRE) {
+    fprintf(stderr, "ax12-emu: adapter wire: client baud %.0f (exact on the bus)\n", pty->bps);
+    return;
+  }
+  fprintf(stderr,
+          "ax12-emu: adapter %s: USB packets to the client %llu (%.1f bytes per packet, largest %llu; %llu full, "
+          "%llu at the latency timer, %llu status-only), latency waits mean %.3f ms, max %.3f ms; client writes %llu "
+          "in %llu USB packets, frame wait mean %.3f ms; client baud %.0f -> %.1f on the bus\n",
+          name, (unsigned long long)st->in_packets, st->in_packets ? (double)st->in_bytes / (double)st->in_packets : 0.0,
+          (unsigned long long)st->max_in_bytes, (unsigned long long)st->in_full_packets,
+          (unsigned long long)st->in_timer_packets, (unsigned long long)st->in_status_only,
+          st->in_timer_packets ? sim_cycles_to_us(st->latency_wait_total) / 1e3 / (double)st->in_timer_packets : 0.0,
+          sim_cycles_to_us(st->latency_wait_max) / 1e3, (unsigned long long)st->out_writes,
+          (unsigned long long)st->out_packets,
+          st->out_writes ? sim_cycles_to_us(st->frame_wait_total) / 1e3 / (double)st->out_writes : 0.0, pty->bps,
+          pty->actual_bps);
+}
+
 static void print_stats(const world_t *world, const pty_bridge_t *pty, const pacing_t *pacing) {
   fprintf(stderr, "ax12-emu: simulated %.3f s at %.2fx real time; ", sim_cycles_to_us(world->now) / 1e6,
           pacing_speed(pacing, world->now));
@@ -38,6 +65,7 @@ static void print_stats(const world_t *world, const pty_bridge_t *pty, const pac
           (unsigned long long)pty->from_client, (unsigned long long)pty->to_client,
           (unsigned long long)pty->dropped_to_client, (unsigned long long)world->bus.collided_bytes,
           (unsigned long long)world->bus.mismatched_deliveries);
+  print_adapter_stats(pty);
   if (world->bus.noise.bit_error_rate > 0.0) {
     fprintf(stderr, "ax12-emu: noise at %g per bit: %llu bytes corrupted, %llu bits flipped\n",
             world->bus.noise.bit_error_rate, (unsigned long long)world->bus.noise_corrupted_bytes,
@@ -48,14 +76,48 @@ static void print_stats(const world_t *world, const pty_bridge_t *pty, const pac
     const uart_link_t *l = &s->board.link;
     fprintf(stderr,
             "ax12-emu: %s: rx %llu (overrun %llu, late %llu), tx %llu (undriven %llu), EEPROM writes %llu, "
-            "persisted %llu%s\n",
+            "persisted %llu, watchdog resets %llu%s\n",
             s->name, (unsigned long long)l->rx_bytes, (unsigned long long)l->rx_overruns,
             (unsigned long long)l->rx_late, (unsigned long long)l->tx_bytes, (unsigned long long)l->tx_undriven,
-            (unsigned long long)s->eeprom_writes, (unsigned long long)s->persists, s->halted ? ", HALTED" : "");
+            (unsigned long long)s->eeprom_writes, (unsigned long long)s->persists,
+            (unsigned long long)s->watchdog_resets, s->halted ? ", HALTED" : "");
   }
 }
 
 static sim_cycles_t sim_of_wall(void *ctx, double wall_us) { return pacing_sim_at(ctx, wall_us); }
+
+static void release_locks(const int *locks, size_t count) {
+  for (size_t i = 0; i < count; i++) {
+    state_lock_release(locks[i]);
+  }
+}
+
+/* A state file that holds no valid settings image, or is not an EEPROM of this MCU's size, is
+ * kept aside under another name (never overwritten) with a one-line warning; the servo runs on
+ * its bytes, so it boots as its firmware decides (factory defaults when no slot is valid),
+ * and its state file starts again from them. False (err set) only when that fails. */
+static bool check_state_file(servo_t *servo, const char *path, unsigned id, char *err, size_t err_len) {
+  char why[160];
+  if (eeprom_store_file_fits(path, servo->eeprom_size, why, sizeof why)) {
+    if (eeprom_store_image_fields(servo->eeprom, servo->eeprom_size, NULL, NULL)) {
+      return true;
+    }
+    snprintf(why, sizeof why, "no valid settings image");
+  }
+  char aside[PATH_MAX + 64];
+  if (eeprom_store_set_aside(path, aside, sizeof aside) != 0) {
+    const int why_not = errno;
+    const int n = snprintf(err, err_len, "%s: %s, and it cannot be kept aside: ", path, why);
+    if (n >= 0 && (size_t)n < err_len) {
+      snprintf(err + n, err_len - (size_t)n, "%s", strerror(why_not));
+    }
+    return false;
+  }
+  const bool has_settings = eeprom_store_image_fields(servo->eeprom, servo->eeprom_size, NULL, NULL);
+  fprintf(stderr, "ax12-emu: warning: servo %u: %s: %s; kept as %s; the servo boots %s\n", id, path, why, aside,
+          has_settings ? "with the settings in it" : "as its firmware decides (factory defaults, ID 1)");
+  return eeprom_store_save(path, servo->eeprom, servo->eeprom_size, err, err_len) == 0;
+}
 
 int emu_serve(const serve_options_t *o) {
   char err[512];
@@ -65,11 +127,19 @@ int emu_serve(const serve_options_t *o) {
     return 1;
   }
   (void)bus_set_noise(&world->bus, o->bit_error_rate, o->noise_seed); /* validated by the parser */
+  int locks[ID_LIST_MAX_ID + 1u];
+  size_t lock_count = 0;
   for (size_t i = 0; i < o->id_count; i++) {
     char path[PATH_MAX + 32];
     eeprom_store_path(path, sizeof(path), o->state_dir, o->ids[i]);
-    if (!world_add_servo(world, o->ids[i], (uint8_t)o->baud, path, err, sizeof(err))) {
+    const int lock = state_lock_take(path, err, sizeof(err));
+    servo_t *servo = lock < 0 ? NULL : world_add_servo(world, o->ids[i], (uint8_t)o->baud, path, err, sizeof(err));
+    if (lock >= 0) {
+      locks[lock_count++] = lock;
+    }
+    if (!servo || !check_state_file(servo, path, o->ids[i], err, sizeof(err))) {
       fprintf(stderr, "ax12-emu: servo %u: %s\n", o->ids[i], err);
+      release_locks(locks, lock_count);
       world_destroy(world);
       return 1;
     }
@@ -83,8 +153,10 @@ int emu_serve(const serve_options_t *o) {
   uint8_t first_baud = (uint8_t)o->baud;
   (void)eeprom_store_image_fields(world->servos[0]->eeprom, world->servos[0]->eeprom_size, NULL, &first_baud);
   pty_bridge_t pty;
-  if (pty_bridge_open(&pty, &world->bus, &world->now, sim_baud_reg_to_bps(first_baud), o->link, err, sizeof(err)) != 0) {
+  if (pty_bridge_open(&pty, &world->bus, &world->now, sim_baud_reg_to_bps(first_baud), &o->adapter, o->link, err,
+                      sizeof(err)) != 0) {
     fprintf(stderr, "ax12-emu: %s\n", err);
+    release_locks(locks, lock_count);
     world_destroy(world);
     return 1;
   }
@@ -120,19 +192,26 @@ int emu_serve(const serve_options_t *o) {
   }
   printf("ready: %s\n", pty.device);
   fflush(stdout);
-  fprintf(stderr, "ax12-emu: %zu servo%s (%s, %s) on %s%s%s, state in %s, %s\n", world->servo_count,
+  char adapter_name[96];
+  usb_adapter_describe(&o->adapter, adapter_name, sizeof(adapter_name));
+  fprintf(stderr, "ax12-emu: %zu servo%s (%s, %s) on %s%s%s, adapter %s, state in %s, %s\n", world->servo_count,
           world->servo_count == 1 ? "" : "s", eeprom_profile_name(o->profile), o->mcu, pty.device, o->link ? " = " : "",
-          o->link ? o->link : "", o->state_dir, o->realtime ? "real time" : "fast");
+          o->link ? o->link : "", adapter_name, o->state_dir, o->realtime ? "real time" : "fast");
 
   bool warned_persist = false;
   double lag_report_at_us = pacing_wall_us() + LAG_REPORT_PERIOD_US;
   double lag_reported_us = 0.0;
   while (!stop_requested) {
-    /* Up to the next client byte's arrival at most (it enters the wire at that exact time). */
+    /* Up to the next client byte's arrival at most (it enters the wire at that exact time),
+     * and to the adapter's next hand-over to the client (its latency timer). */
     sim_cycles_t until = world->now + slice;
     const sim_cycles_t next_input = pty_bridge_next_input(&pty);
     if (next_input > world->now && next_input < until) {
       until = next_input;
+    }
+    const sim_cycles_t next_output = pty_bridge_next_output(&pty);
+    if (next_output > world->now && next_output < until) {
+      until = next_output;
     }
     world_run_until(world, until);
     (void)pty_bridge_pump(&pty, o->realtime ? sim_of_wall : NULL, &pacing);
@@ -173,6 +252,7 @@ int emu_serve(const serve_options_t *o) {
   }
   pty_bridge_close(&pty);
   world_destroy(world);
+  release_locks(locks, lock_count); /* after the last state file was written */
   return failures ? 1 : 0;
 }
 

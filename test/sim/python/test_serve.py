@@ -1,5 +1,5 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
-"""ax12-emu serve as a program: persistence across SIGKILL, clean shutdown, the --ids list,
+"""ax12-emu serve as a program: settings across SIGTERM and SIGKILL, clean shutdown, the --ids list,
 --link, and one-line errors for bad input. Raw Protocol 1.0 packets through pyserial."""
 import os
 import subprocess
@@ -31,18 +31,75 @@ def read_byte(port, ident, addr):
 
 
 @pytest.mark.parametrize("mode", ["--fast", "--realtime"])
-def test_a_write_survives_sigkill_right_after_its_reply(emulator, tmp_path, mode):
+def test_a_write_answered_just_before_sigterm_is_stored_whole(emulator, tmp_path, mode):
+    """Ctrl-C and SIGTERM run the servos until their EEPROM is quiet: a write answered (and so
+    still being stored in the background) right before the signal survives."""
     state = tmp_path / "state"
     emu = emulator(mode, "--state-dir", str(state))
     with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
         assert transact(port, packet(1, T.INST_PING), 6) == PING_REPLY[1]
-        reply = transact(port, packet(1, T.INST_WRITE, [T.RETURN_DELAY_TIME, 37]), 6)
-        os.kill(emu.proc.pid, 9)  # at once: no clean shutdown
+        reply = transact(port, packet(1, T.INST_WRITE, [T.RETURN_DELAY_TIME, 37, 0x10, 0x00, 0xF0, 0x02]), 6)
+        emu.proc.send_signal(15)
         assert reply == PING_REPLY[1]
-    emu.proc.wait(timeout=10)
+    assert emu.proc.wait(timeout=10) == 0
     emu = emulator(mode, "--state-dir", str(state))
     with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
         assert read_byte(port, 1, T.RETURN_DELAY_TIME) == 37
+        assert read_byte(port, 1, T.CCW_ANGLE_LIMIT + 1) == 0x02
+
+
+# Two complete settings of addresses 3..9 (ID, Baud Rate, Return Delay Time, both angle
+# limits) the kill test writes in turn: (ID, baud register, the 7 bytes).
+SETTINGS = [
+    (1, 1, [1, 1, 250, 0x00, 0x00, 0xFF, 0x03]),
+    (7, 3, [7, 3, 20, 0x20, 0x01, 0x80, 0x02]),
+]
+
+
+def bps(baud_register):
+    return 2000000 // (baud_register + 1)
+
+
+def settings_answered(device, ident, baud_register):
+    """Addresses 0..23 as the servo at (ident, baud) answers them, or None when silent."""
+    with serial.Serial(device, bps(baud_register), timeout=0.3) as port:
+        reply = transact(port, packet(ident, T.INST_READ, [0, 24]), 30, timeout=0.3)
+    status = parse(reply)
+    if not status or not status.checksum_ok or status.ident != ident:
+        return None
+    return bytes(status.params)
+
+
+def test_sigkill_at_random_moments_of_eeprom_writes_boots_the_old_or_the_new_settings(emulator, tmp_path):
+    """SIGKILL (a power cut) at a random moment of a 7-byte EEPROM write that moves the servo
+    to another ID and baud, then a restart: the servo answers at the old ID and baud with
+    every old value, or at the new ones with every new value (docs/policy.md "Settings")."""
+    import random
+    rng = random.Random(20261125)
+    state = tmp_path / "state"
+    current = 0
+    outcomes = {"old": 0, "new": 0}
+    for attempt in range(16):
+        emu = emulator("--state-dir", str(state))
+        ident, baud, _ = SETTINGS[current]
+        target = 1 - current
+        with serial.Serial(emu.device, bps(baud), timeout=1.0) as port:
+            assert transact(port, packet(ident, T.INST_PING), 6) == PING_REPLY[ident], attempt
+            port.write(packet(ident, T.INST_WRITE, [T.ID] + SETTINGS[target][2]))
+            time.sleep(rng.uniform(0.0, 0.045))  # the store takes about 34 ms after the reply
+            os.kill(emu.proc.pid, 9)
+        emu.proc.wait(timeout=10)
+        emu = emulator("--state-dir", str(state))
+        old = settings_answered(emu.device, ident, baud)
+        new = settings_answered(emu.device, SETTINGS[target][0], SETTINGS[target][1])
+        assert (old is None) != (new is None), f"attempt {attempt}: answered at both or neither"
+        got = old if old is not None else new
+        want = SETTINGS[current][2] if old is not None else SETTINGS[target][2]
+        assert list(got[3:10]) == want, f"attempt {attempt}: a mix: {got.hex()}"
+        outcomes["old" if old is not None else "new"] += 1
+        current = current if old is not None else target
+        emu.kill()
+    assert outcomes["old"] > 0 and outcomes["new"] > 0, outcomes
 
 
 def test_sigterm_exits_cleanly_and_removes_the_link(emulator, tmp_path):
@@ -66,8 +123,10 @@ def test_every_listed_id_is_its_own_servo(emulator, tmp_path):
         for ident in (1, 2, 3, 7, 10):
             assert transact(port, packet(ident, T.INST_PING), 6) == PING_REPLY[ident]
         assert transact(port, packet(4, T.INST_PING), 6, timeout=0.1) == b""
-    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+    assert sorted(p.name for p in tmp_path.glob("*.eeprom")) == sorted(
         f"servo-{i}.eeprom" for i in (1, 2, 3, 7, 10))
+    assert sorted(p.name for p in tmp_path.glob("*.lock")) == sorted(
+        f"servo-{i}.eeprom.lock" for i in (1, 2, 3, 7, 10))
 
 
 def test_fresh_servos_start_at_the_baud_asked_for(emulator, tmp_path):
@@ -126,3 +185,83 @@ def test_bad_input_gives_one_line_naming_the_problem(args, names, tmp_path):
     assert len(lines) == 1, out.stderr
     assert names in lines[0], lines[0]
     assert time.monotonic() - started < 10
+
+
+# --- the emulator's own edges (docs/emulator.md "State files") ---------------------------------
+
+def run_serve(args, tmp_path, timeout=20):
+    full = [EMU, "serve", "--fast", "--firmware-dir", FIRMWARE_DIR]
+    if "--state-dir" not in args:
+        full += ["--state-dir", str(tmp_path)]
+    return subprocess.run(full + list(args), capture_output=True, text=True, timeout=timeout)
+
+
+def test_a_non_avr_elf_is_refused_with_one_line(tmp_path):
+    out = run_serve(["--elf", "/bin/sh"], tmp_path)
+    assert out.returncode != 0 and out.stdout == ""
+    assert out.stderr.splitlines() == ["ax12-emu: /bin/sh is not an AVR firmware ELF"], out.stderr
+
+
+def test_an_elf_of_another_mcu_is_refused_naming_the_right_one(tmp_path):
+    elf = os.path.join(FIRMWARE_DIR, "ax12-ax12-atmega88.elf")
+    out = run_serve(["--elf", elf, "--mcu", "atmega328p"], tmp_path)
+    assert out.returncode != 0 and out.stdout == ""
+    lines = out.stderr.splitlines()
+    assert len(lines) == 1 and "built for the atmega88, not the atmega328p" in lines[0], out.stderr
+
+
+def test_a_fifo_as_state_file_is_refused_at_once(tmp_path):
+    os.mkfifo(tmp_path / "servo-1.eeprom")
+    started = time.monotonic()
+    out = run_serve([], tmp_path)
+    assert out.returncode != 0 and out.stdout == ""
+    lines = out.stderr.splitlines()
+    assert len(lines) == 1 and "servo-1.eeprom is not a regular file" in lines[0], out.stderr
+    assert time.monotonic() - started < 10
+
+
+@pytest.mark.parametrize("kind", ["garbage", "truncated", "old format"])
+def test_a_bad_state_file_is_kept_aside_with_a_warning_and_the_servo_boots_as_its_firmware_decides(
+        emulator, tmp_path, kind):
+    state = tmp_path / "state"
+    emu = emulator("--state-dir", str(state), "--ids", "4")
+    with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
+        assert transact(port, packet(4, T.INST_WRITE, [T.RETURN_DELAY_TIME, 37]), 6) == PING_REPLY[4]
+    assert emu.stop() == 0
+    path = state / "servo-4.eeprom"
+    good = path.read_bytes()
+    if kind == "garbage":
+        bad = bytes((i * 37 + 11) & 0xFF for i in range(len(good)))
+    elif kind == "truncated":
+        bad = good[:20]                       # cut inside the first settings slot
+    else:                                     # format 1: version 1, the table, a CRC-8 (here 0)
+        bad = bytes([1]) + good[1:25] + bytes([0]) + b"\xff" * (len(good) - 26)
+    path.write_bytes(bad)
+    emu = emulator("--state-dir", str(state), "--ids", "4")
+    warning = emu.proc.stderr.readline().decode()
+    assert "warning: servo 4:" in warning and str(path) in warning and "kept as" in warning, warning
+    aside = state / "servo-4.eeprom.invalid-1"
+    assert aside.read_bytes() == bad          # kept, not overwritten
+    with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
+        assert read_byte(port, 1, T.RETURN_DELAY_TIME) == 250   # factory defaults: ID 1
+    assert emu.stop() == 0
+    emu = emulator("--state-dir", str(state), "--ids", "4")   # the defaults were stored
+    with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
+        assert read_byte(port, 1, T.ID) == 1
+
+
+def test_a_second_emulator_on_a_servo_in_use_is_refused_naming_the_first(emulator, tmp_path):
+    state = tmp_path / "state"
+    first = emulator("--state-dir", str(state), "--ids", "1,2")
+    out = run_serve(["--state-dir", str(state), "--ids", "2"], tmp_path)
+    assert out.returncode != 0 and out.stdout == ""
+    lines = out.stderr.splitlines()
+    assert len(lines) == 1 and "servo-2.eeprom is in use by another ax12-emu" in lines[0], out.stderr
+    assert f"pid {first.proc.pid}" in lines[0], lines[0]
+    other = emulator("--state-dir", str(state), "--ids", "3")   # another servo of the same folder
+    with serial.Serial(other.device, 1000000, timeout=1.0) as port:
+        assert transact(port, packet(3, T.INST_PING), 6) == PING_REPLY[3]
+    first.kill()                                                # a SIGKILL frees it too
+    again = emulator("--state-dir", str(state), "--ids", "2")
+    with serial.Serial(again.device, 1000000, timeout=1.0) as port:
+        assert transact(port, packet(2, T.INST_PING), 6) == PING_REPLY[2]

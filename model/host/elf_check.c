@@ -1,0 +1,95 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+#include "elf_check.h"
+
+#include <elf.h>
+#include <errno.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+/* e_flags of an AVR ELF: the architecture number in its low 7 bits (binutils' EF_AVR_MACH). */
+#define AVR_MACH_MASK 0x7Fu
+/* Addresses of an AVR ELF: flash below 0x800000, SRAM from there, EEPROM from 0x810000. */
+#define AVR_DATA_SPACE 0x800000u
+#define AVR_EEPROM_SPACE 0x810000u
+
+typedef struct {
+  const char *mcu;
+  unsigned arch;
+  uint32_t flash_bytes;
+} mcu_facts_t;
+
+static const mcu_facts_t MCUS[] = {
+    {"atmega88", 4, 8192},
+    {"atmega328p", 5, 32768},
+};
+
+static const mcu_facts_t *facts_of(const char *mcu) {
+  for (size_t i = 0; i < sizeof MCUS / sizeof MCUS[0]; i++) {
+    if (strcmp(MCUS[i].mcu, mcu) == 0) {
+      return &MCUS[i];
+    }
+  }
+  return NULL;
+}
+
+static const char *mcu_of_arch(unsigned arch) {
+  for (size_t i = 0; i < sizeof MCUS / sizeof MCUS[0]; i++) {
+    if (MCUS[i].arch == arch) {
+      return MCUS[i].mcu;
+    }
+  }
+  return NULL;
+}
+
+bool elf_check_avr(const char *path, const char *mcu, char *err, size_t err_len) {
+  const mcu_facts_t *facts = facts_of(mcu);
+  if (!facts) {
+    snprintf(err, err_len, "unknown MCU '%s'", mcu);
+    return false;
+  }
+  FILE *f = fopen(path, "rb");
+  if (!f) {
+    snprintf(err, err_len, "cannot read %s: %s", path, strerror(errno));
+    return false;
+  }
+  Elf32_Ehdr h;
+  bool ok = fread(&h, sizeof h, 1, f) == 1 && memcmp(h.e_ident, ELFMAG, SELFMAG) == 0;
+  if (!ok || h.e_ident[EI_CLASS] != ELFCLASS32 || h.e_ident[EI_DATA] != ELFDATA2LSB || h.e_machine != EM_AVR) {
+    snprintf(err, err_len, "%s is not an AVR firmware ELF", path);
+    fclose(f);
+    return false;
+  }
+  const unsigned arch = h.e_flags & AVR_MACH_MASK;
+  if (arch != facts->arch) {
+    const char *other = mcu_of_arch(arch);
+    if (other) {
+      snprintf(err, err_len, "%s is built for the %s, not the %s (--mcu %s)", path, other, mcu, other);
+    } else {
+      snprintf(err, err_len, "%s is built for AVR architecture %u, not the %s's (%u)", path, arch, mcu,
+               facts->arch);
+    }
+    fclose(f);
+    return false;
+  }
+  uint64_t flash = 0;
+  for (unsigned i = 0; i < h.e_phnum; i++) {
+    Elf32_Phdr ph;
+    if (fseek(f, (long)(h.e_phoff + (uint64_t)i * h.e_phentsize), SEEK_SET) != 0 || fread(&ph, sizeof ph, 1, f) != 1) {
+      snprintf(err, err_len, "%s: truncated ELF program header", path);
+      fclose(f);
+      return false;
+    }
+    /* Code, and the initial values of data, which the C runtime copies from flash. */
+    if (ph.p_type == PT_LOAD && ph.p_vaddr < AVR_EEPROM_SPACE) {
+      flash += ph.p_filesz;
+    }
+  }
+  fclose(f);
+  if (flash > facts->flash_bytes) {
+    snprintf(err, err_len, "%s needs %llu B of flash; the %s has %u", path, (unsigned long long)flash, mcu,
+             (unsigned)facts->flash_bytes);
+    return false;
+  }
+  return true;
+}

@@ -1,0 +1,433 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""`scripts/ax12 conform` (scripts/ax12_conform.py) against `ax12-emu serve`.
+
+- The matching profile: every case run passes, and the JSON report has its schema.
+- The other profile: the failing cases are exactly those whose records differ between the
+  profiles (derived here from the two profiles' records and the generated table, not from the
+  tool's logic).
+- Two deliberately broken firmware builds (test/conform/CMakeLists.txt): the failing cases are
+  exactly those the defect touches, derived from the records (facts, bytes and changes).
+- Ctrl-C in the middle of an EEPROM case: after a restart of the emulator the device reads its
+  original settings.
+- Two devices at one ID (a fake device on a pty: the emulator refuses `--ids 1,1`): refused.
+- Bad input: a clear message and a non-zero exit, never a traceback.
+
+ctest sets AX12_EMU, AX12_FIRMWARE_DIR, AX12_CONFORM_DEFECT_DIR, AX12_BUILD_DIR and PYTHONPATH.
+The emulator runs in real time (the tool's timeouts are wall-clock) with the fixture of the
+client suites (test/clients/conftest.py), in a fresh state folder per test.
+"""
+import importlib.util
+import json
+import os
+import pty
+import re
+import select
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import tty
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[2]
+BUILD = Path(os.environ.get("AX12_BUILD_DIR", REPO / "build"))
+TOOL = REPO / "scripts" / "ax12_conform.py"
+DEFECTS = Path(os.environ.get("AX12_CONFORM_DEFECT_DIR", BUILD / "test" / "conform" / "defects"))
+sys.path.insert(0, str(REPO / "python"))
+import ax12_build  # noqa: E402
+
+ax12_build.ensure(str(BUILD))
+import ax12_table as T  # noqa: E402
+import ax12_packets as P  # noqa: E402
+import ax12_conformance_records as R  # noqa: E402
+
+_spec = importlib.util.spec_from_file_location("clients_conftest", REPO / "test" / "clients" / "conftest.py")
+clients = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(clients)
+
+
+@pytest.fixture
+def tmp_path():
+    """A folder of this test's own: pytest's numbered temporary folders are shared by every
+    pytest run of the user, and a run started elsewhere may delete ours while an emulator keeps
+    its state in it."""
+    folder = tempfile.mkdtemp(prefix="ax12-conform-test-")
+    yield Path(folder)
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+@pytest.fixture
+def serve(tmp_path):
+    started = []
+
+    def start(profile="ax12", extra=(), state_dir=None):
+        emu = clients._find_emulator()
+        if emu is None:
+            pytest.fail("ax12-emu not found: set AX12_EMU")
+        e = clients.Emulator(emu, state_dir or tmp_path / ("state%d" % len(started)), profile=profile,
+                             extra=list(extra))
+        started.append(e)
+        return e.start()
+
+    yield start
+    for e in started:
+        e.stop()
+
+
+def conform(*args, timeout=300):
+    cmd = [sys.executable, str(TOOL), "--build", str(BUILD)] + [str(a) for a in args]
+    proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=timeout)
+    assert "Traceback" not in proc.stderr, proc.stderr
+    return proc
+
+
+def run_report(tmp_path, port, *args):
+    report = tmp_path / "report.json"
+    proc = conform("--port", port, "--allow-eeprom", "--report", report, *args)
+    assert report.exists(), proc.stdout + proc.stderr
+    return proc, json.loads(report.read_text())
+
+
+def failing(report):
+    return {(c["group"], c["name"]) for c in report["cases"] if c["status"] == "failed"}
+
+
+def ran(report):
+    return [c for c in report["cases"] if c["status"] in ("passed", "failed")]
+
+
+RECORDS = {}
+
+
+def records(profile):
+    if profile not in RECORDS:
+        RECORDS[profile] = R.run_tests(str(BUILD), (profile,))
+    return RECORDS[profile]
+
+
+def hexes(text):
+    return R.parse_hex(text)
+
+
+# --- the matching profile ------------------------------------------------------------------------
+
+def check_schema(report):
+    for key, kind in (("port", str), ("id", int), ("baud_register", int), ("profile", str), ("groups", list),
+                      ("totals", dict), ("skipped_reasons", dict), ("restored", bool), ("restore_problems", list),
+                      ("warnings", list), ("interrupted", bool), ("cases", list), ("device", dict)):
+        assert isinstance(report[key], kind), key
+    for g in report["groups"]:
+        assert set(g) == {"group", "passed", "failed", "skipped", "not_run"}
+        assert g["group"] in R.GROUPS
+    assert sum(g["passed"] + g["failed"] + g["skipped"] + g["not_run"] for g in report["groups"]) == len(report["cases"])
+    for c in report["cases"]:
+        assert c["status"] in ("passed", "failed", "skipped", "not run")
+        assert isinstance(c["differences"], list) and isinstance(c["replies"], list)
+        if c["status"] == "skipped":
+            assert c["reason"]
+        if c["status"] == "failed":
+            assert c["differences"]
+        for d in c["differences"]:
+            assert "step" in d and ("heard" in d or "note" in d)
+        for r in c["replies"]:
+            assert set(r) == {"step", "start_us", "return_delay_us"}
+    tm = report["timing"]
+    assert tm["replies"] > 0 and set(tm["reply_start_minus_rdt_us"]) == {"min", "median", "max"}
+
+
+@pytest.mark.parametrize("profile", ["ax12", "ax12a"])
+def test_every_case_passes_against_the_matching_profile(serve, tmp_path, profile):
+    emu = serve(profile=profile)
+    proc, report = run_report(tmp_path, emu.path, "--profile", profile)
+    check_schema(report)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert report["totals"]["failed"] == 0
+    assert report["restored"] and not report["interrupted"]
+    # every group ran, and nothing was skipped for a reason other than the port's limits
+    assert all(g["passed"] > 0 for g in report["groups"]) and len(report["groups"]) == len(R.GROUPS)
+    assert set(report["skipped_reasons"]) <= {"api", "event", "power-cycle", "servos", "temperature", "lock",
+                                              "mapping"}
+    assert report["skipped_reasons"].get("mapping", 0) <= 1
+    assert "result: PASS" in proc.stdout
+
+
+def test_without_allow_eeprom_no_eeprom_case_runs_and_the_table_is_left_as_found(serve, tmp_path):
+    emu = serve()
+    # a device not at the factory's settings: RAM and EEPROM
+    for addr, value in ((T.LED, [1]), (T.PUNCH, [40, 0]), (T.ALARM_LED, [5])):
+        assert P.parse(talk(emu.path, P.instruction_packet(1, T.INST_WRITE, [addr] + value), 6)).code == 0
+    before = read_table(emu.path)
+    report_path = tmp_path / "r.json"
+    proc = conform("--port", emu.path, "--only", "ranges", "--only", "matrix", "--report", report_path)
+    report = json.loads(report_path.read_text())
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert ran(report) and all(not c["eeprom"] for c in ran(report))
+    reasons = {c["name"]: c["reason"] for c in report["cases"] if c["status"] == "skipped"}
+    # a case that writes an EEPROM item with another value, one that needs an EEPROM item at its
+    # factory value (Alarm LED is 5 here), one of the matrix's Status Return Level changes
+    assert reasons["WRITE of Return Delay Time = 0 (min) is accepted"].startswith("needs --allow-eeprom")
+    assert "Alarm LED" in reasons["WRITE of Alarm LED = 0 (min) is accepted"]
+    assert reasons["PING to its own ID at Status Return Level 0"].startswith("needs --allow-eeprom")
+    after = read_table(emu.path)
+    writable = [a for it in T.ITEMS if it.access_ax12 == "RW" for a in range(it.addr, it.addr + it.size)]
+    assert [after[a] for a in writable] == [before[a] for a in writable]
+
+
+# --- the other profile ---------------------------------------------------------------------------
+
+def differing_factory_addresses():
+    """Addresses whose factory value differs between the profiles (the generated table)."""
+    out = set()
+    for item in T.ITEMS:
+        if item.default_ax12 != item.default_ax12a:
+            out |= set(range(item.addr, item.addr + item.size))
+    return out
+
+
+def rounds_bytes(record, ignore):
+    """Each round of the record (from a factory-fresh servo) as its steps, exchanges as (sent,
+    heard) with READ data at the ignored addresses (and the checksum after them) blanked."""
+    out = []
+    for bus, steps in R.split_rounds(record["steps"]):
+        key = [json.dumps(bus, sort_keys=True)]
+        for s in steps:
+            if s["kind"] != "exchange":
+                key.append((s["kind"], json.dumps(s.get("baud"))))
+                continue
+            sent, heard = hexes(s["sent"]), list(hexes(s["heard"]))
+            p = P.parse(sent)
+            if p and p.code == T.INST_READ and len(p.params) == 2 and len(heard) == 6 + p.params[1]:
+                blank = [i for i in range(p.params[1]) if p.params[0] + i in ignore]
+                for i in blank:
+                    heard[5 + i] = None
+                if blank:
+                    heard[-1] = None
+            key.append((tuple(sent), tuple(heard)))
+        out.append(tuple(key))
+    return out
+
+
+def twin_name(name):
+    """Conversations written once per profile pair up by name: broadcast_ping_ax12(a).conv."""
+    return re.sub(r"_ax12a?\.conv$", ".conv", name)
+
+
+def effective_reset(record):
+    """A RESET the servo acts on: well-formed, to its ID or broadcast, not refused."""
+    buses = [s for s in record["steps"] if s["kind"] == "bus"]
+    if not buses:
+        return False
+    servo = buses[0]["ids"][0]
+    for s in record["steps"]:
+        if s["kind"] == "exchange":
+            p = P.parse(hexes(s["sent"]))
+            heard = P.parse(hexes(s["heard"])) if s["heard"] else None
+            if p and p.code == T.INST_RESET and p.checksum_ok and not p.params and \
+                    p.ident in (servo, T.ID_BROADCAST) and not (heard and heard.code & T.ERR_INSTRUCTION):
+                return True
+    return False
+
+
+def expected_profile_differences(compared, device):
+    """(paired, expected): the cases of profile `compared` that have a twin of the same name in
+    `device`'s records, and those of them a servo of profile `device` must fail: a round (from a
+    factory-fresh servo) the twin does not have with the same bytes (but for READ data of items
+    whose factory value differs: the tool starts every case from `compared`'s factory values), or
+    a RESET (after which the whole table holds the device's factory values)."""
+    ignore = differing_factory_addresses()
+    theirs = {(r["group"], twin_name(r["name"])): r for r in records(device)}
+    paired, expected = set(), set()
+    for r in records(compared):
+        key = (r["group"], r["name"])
+        other = theirs.get((r["group"], twin_name(r["name"])))
+        if other is None:
+            continue
+        paired.add(key)
+        if set(rounds_bytes(r, ignore)) - set(rounds_bytes(other, ignore)) or (effective_reset(r) and ignore):
+            expected.add(key)
+    return paired, expected
+
+
+@pytest.mark.parametrize("compared,device", [("ax12", "ax12a"), ("ax12a", "ax12")])
+def test_the_other_profile_fails_exactly_where_the_profiles_differ(serve, tmp_path, compared, device):
+    emu = serve(profile=device)
+    proc, report = run_report(tmp_path, emu.path, "--profile", compared)
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    ran_keys = {(c["group"], c["name"]) for c in ran(report)}
+    paired, expected = expected_profile_differences(compared, device)
+    expected &= ran_keys
+    assert expected, "the profiles differ in some case that runs"
+    # a case of one profile alone (no twin to derive its outcome from) may pass or fail
+    assert failing(report) & paired == expected, proc.stdout
+    assert report["restored"]
+
+
+# --- broken firmware builds ----------------------------------------------------------------------
+
+def srl_silences(record):
+    """Exchanges to the servo's own ID (a whole packet) at Status Return Level 0 or 1 that the
+    record hears nothing back for: a servo that ignores the level answers them."""
+    bus = [s for s in record["steps"] if s["kind"] == "bus"]
+    if not bus:
+        return False
+    ident, level = bus[0]["ids"][0], 2
+    for s in record["steps"]:
+        if s["kind"] == "bus":
+            ident, level = s["ids"][0], 2
+        if s["kind"] != "exchange":
+            continue
+        p = P.parse(hexes(s["sent"]))
+        if p and p.ident == ident and level < 2 and not s["heard"]:
+            return True
+        for text in s.get("changes") or ():
+            m = re.match(r"^Status Return Level (\d+) \u2192 (\d+)$", text)
+            if m:
+                level = int(m.group(2))
+            m = re.match(r"^ID (\d+) \u2192 (\d+)$", text)
+            if m:
+                ident = int(m.group(2))
+    return False
+
+
+def broadcast_reads(record):
+    """A READ to the broadcast ID with a good checksum: answered by a servo that answers them."""
+    for s in record["steps"]:
+        if s["kind"] == "exchange":
+            p = P.parse(hexes(s["sent"]))
+            if p and p.ident == T.ID_BROADCAST and p.code == T.INST_READ and p.checksum_ok:
+                return True
+    return False
+
+
+@pytest.mark.parametrize("defect,touched", [("IGNORE_SRL", srl_silences), ("BROADCAST_READ", broadcast_reads)])
+def test_a_broken_build_fails_exactly_the_cases_its_defect_touches(serve, tmp_path, defect, touched):
+    elf = DEFECTS / defect / "ax12-ax12-atmega88.elf"
+    assert elf.exists(), "build the defect firmware first (cmake --build): %s" % elf
+    emu = serve(profile="ax12", extra=["--elf", str(elf)])
+    proc, report = run_report(tmp_path, emu.path, "--profile", "ax12")
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    ran_keys = {(c["group"], c["name"]) for c in ran(report)}
+    expected = {(r["group"], r["name"]) for r in records("ax12") if touched(r)} & ran_keys
+    assert expected
+    assert failing(report) == expected, proc.stdout
+    assert report["restored"]
+
+
+# --- Ctrl-C in an EEPROM case --------------------------------------------------------------------
+
+def talk(path, packet, expect, baud=1000000):
+    import serial
+    with serial.Serial(path, baud, timeout=0.3) as s:
+        s.reset_input_buffer()
+        s.write(bytes(packet))
+        return s.read(expect)
+
+
+def read_table(path, ident=1):
+    got = talk(path, P.instruction_packet(ident, T.INST_READ, [0, T.TABLE_SIZE]), 6 + T.TABLE_SIZE)
+    p = P.parse(got)
+    assert p is not None and p.checksum_ok, got.hex()
+    return list(p.params)
+
+
+def test_ctrl_c_in_an_eeprom_case_leaves_the_original_settings(serve, tmp_path):
+    emu = serve()
+    # settings other than the factory's, among them one the case resets to factory first
+    for addr, value in ((T.CW_ANGLE_LIMIT, [1, 0]), (T.RETURN_DELAY_TIME, [100]), (T.ALARM_LED, [5])):
+        assert P.parse(talk(emu.path, P.instruction_packet(1, T.INST_WRITE, [addr] + value), 6)).code == 0
+    before = read_table(emu.path)
+    cmd = [sys.executable, str(TOOL), "--build", str(BUILD), "--port", emu.path, "--allow-eeprom", "-v",
+           "--case", "A baud change applies after the reply"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    seen = []
+    for line in proc.stderr:
+        seen.append(line)
+        # step 1 wrote Baud Rate 34: the device listens at 57 600 bit/s now; step 2 waits for silence
+        if "step 1: sent FF FF 01 04 03 04 22" in line:
+            proc.send_signal(signal.SIGINT)
+            break
+    out, err = proc.communicate(timeout=60)
+    err = "".join(seen) + err
+    assert proc.returncode == 130, out + err
+    assert "Traceback" not in err
+    assert "interrupted" in err and "step 3" not in err, err
+    report_line = [ln for ln in out.splitlines() if ln.startswith("settings:")]
+    assert report_line and "written back" in report_line[0], out
+    emu.restart()  # settings read back after a restart: what the EEPROM holds
+    after = read_table(emu.path)
+    assert after[:T.EEPROM_SIZE] == before[:T.EEPROM_SIZE]
+
+
+# --- two devices at one ID, bad input ------------------------------------------------------------
+
+class FakeBus:
+    """A pty whose far end answers every PING to ID 1 or broadcast with `reply`."""
+
+    def __init__(self, reply):
+        self.master, slave = pty.openpty()
+        tty.setraw(slave)
+        self.path = os.ttyname(slave)
+        self.slave = slave
+        self.reply = reply
+        self.stop = False
+        self.thread = threading.Thread(target=self.run, daemon=True)
+        self.thread.start()
+
+    def run(self):
+        buf = b""
+        while not self.stop:
+            try:
+                r, _, _ = select.select([self.master], [], [], 0.05)
+                if not r:
+                    continue
+                buf += os.read(self.master, 256)
+            except OSError:
+                return
+            while len(buf) >= 6:
+                start = buf.find(b"\xff\xff")
+                if start < 0 or len(buf) < start + 4 or len(buf) < start + 4 + buf[start + 3]:
+                    break
+                packet = buf[start:start + 4 + buf[start + 3]]
+                buf = buf[start + len(packet):]
+                p = P.parse(packet)
+                if p and p.code == T.INST_PING and p.ident in (1, T.ID_BROADCAST) and self.reply:
+                    time.sleep(0.0005)
+                    os.write(self.master, self.reply)
+
+    def close(self):
+        self.stop = True
+        self.thread.join(timeout=2)
+        os.close(self.master)
+        os.close(self.slave)
+
+
+@pytest.mark.parametrize("reply", [
+    bytes(P.status_packet(1, 0)) * 2,  # two status packets, one after the other
+    bytes(b | c for b, c in zip(P.status_packet(1, 0), P.status_packet(1, 0x20))) + b"\xfc",  # on top of each other
+], ids=["two-packets", "garbled"])
+def test_two_devices_at_the_id_are_refused(reply):
+    bus = FakeBus(reply)
+    try:
+        proc = conform("--port", bus.path, "--only", "matrix", timeout=60)
+    finally:
+        bus.close()
+    assert proc.returncode == 3, proc.stdout + proc.stderr
+    assert "refused" in proc.stderr and "more than one device answers at ID 1" in proc.stderr
+
+
+def test_bad_input_is_a_clear_message(tmp_path):
+    proc = conform("--port", tmp_path / "no-such-port")
+    assert proc.returncode == 2 and "no such port" in proc.stderr
+    bus = FakeBus(b"")  # nothing answers
+    try:
+        proc = conform("--port", bus.path, timeout=60)
+    finally:
+        bus.close()
+    assert proc.returncode == 2 and "no device answers a PING at ID 1" in proc.stderr
+    proc = conform("--port", "/dev/null", "--baud", "300")
+    assert proc.returncode == 2 and "--baud" in proc.stderr
