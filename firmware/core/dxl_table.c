@@ -101,22 +101,20 @@ uint8_t ct_check_write(const uint8_t *table, uint8_t start, const uint8_t *data,
     if (d.access != CT_RW || (locked && locked_refuses(d.addr, last_addr))) {
       return DXL_ERR_RANGE;
     }
-    /* Moving Speed: up to the wheel-mode maximum here, joint mode's below. */
-    const uint16_t max = index == CT_IDX_MOVING_SPEED ? MOVING_SPEED_WHEEL_MAX : d.max;
+    uint16_t max = d.max;
+    if (index == CT_IDX_MOVING_SPEED) {
+      const bool wheel_after =
+          ct_u16_after_write(table, CT_ADDR_CW_ANGLE_LIMIT, start, data, len) == 0 &&
+          ct_u16_after_write(table, CT_ADDR_CCW_ANGLE_LIMIT, start, data, len) == 0;
+      if (wheel_after) {
+        max = MOVING_SPEED_WHEEL_MAX;
+      }
+    }
     const uint16_t value = item_value_after_write(table, d.addr, d.size_bytes, start, data, len);
     if (value < d.min || value > max) {
       return DXL_ERR_RANGE;
     }
     pos = (uint8_t)(last_addr + 1);
-  }
-  /* Moving Speed's range is that of the mode the table is in after the write, whether the
-   * write holds the speed or ends wheel mode under a speed above joint mode's maximum
-   * (docs/policy.md "WRITE, REG_WRITE and ACTION"). */
-  const bool wheel_after = ct_u16_after_write(table, CT_ADDR_CW_ANGLE_LIMIT, start, data, len) == 0 &&
-                           ct_u16_after_write(table, CT_ADDR_CCW_ANGLE_LIMIT, start, data, len) == 0;
-  if (!wheel_after && ct_u16_after_write(table, CT_ADDR_MOVING_SPEED, start, data, len) >
-                          ct_items[CT_IDX_MOVING_SPEED].max) {
-    return DXL_ERR_RANGE;
   }
   return 0;
 }
