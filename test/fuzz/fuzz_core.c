@@ -277,8 +277,13 @@ static void describe_table_difference(const uint8_t *before, const uint8_t *afte
  * The packet oracle: what a packet must and may do, from docs/policy.md
  * --------------------------------------------------------------------------------------- */
 
-/* Writes data[0..len) at start into table as a WRITE does: address 44 written 0 clears it,
- * written 1 leaves it. */
+/* Writes data[0..len) at start into table as a WRITE does (docs/policy.md "WRITE, REG_WRITE
+ * and ACTION", "Motion semantics"): address 44 written 0 clears it, written 1 leaves it; in
+ * joint mode afterwards Moving Speed keeps bits 0..9 only (leaving wheel mode drops the
+ * direction); then Moving and Present Load as a committed write leaves them: with torque off
+ * both 0, with torque on Moving 1 when the goal (clamped to the limits) lies farther from
+ * Present Position than the margin on its side + 2, or a wheel-mode speed Torque Limit lets
+ * through. */
 static void apply_window(uint8_t *table, uint8_t start, const uint8_t *data, uint8_t len) {
   for (uint8_t i = 0; i < len; i++) {
     const unsigned addr = (unsigned)start + i;
@@ -292,6 +297,32 @@ static void apply_window(uint8_t *table, uint8_t start, const uint8_t *data, uin
       continue;
     }
     table[addr] = data[i];
+  }
+  const bool wheel = ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT) == 0 && ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT) == 0;
+  const uint16_t speed = ct_get_u16(table, CT_ADDR_MOVING_SPEED);
+  if (!wheel) {
+    ct_set_u16(table, CT_ADDR_MOVING_SPEED, (uint16_t)(speed & 0x3FFu));
+  }
+  if (table[CT_ADDR_TORQUE_ENABLE] == 0) {
+    table[CT_ADDR_MOVING] = 0;
+    ct_set_u16(table, CT_ADDR_PRESENT_LOAD, 0);
+    return;
+  }
+  bool starts;
+  if (wheel) {
+    const uint16_t torque_limit = ct_get_u16(table, CT_ADDR_TORQUE_LIMIT);
+    starts = (speed & 0x3FFu) != 0 && torque_limit != 0;
+  } else {
+    const int cw = ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT);
+    const int ccw = ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT);
+    int goal = ct_get_u16(table, CT_ADDR_GOAL_POSITION);
+    goal = goal < cw ? cw : goal > ccw ? ccw : goal;
+    const int error = goal - (int)ct_get_u16(table, CT_ADDR_PRESENT_POSITION);
+    const int margin = error > 0 ? table[CT_ADDR_CW_COMPLIANCE_MARGIN] : table[CT_ADDR_CCW_COMPLIANCE_MARGIN];
+    starts = (error < 0 ? -error : error) > margin + 2;
+  }
+  if (starts) {
+    table[CT_ADDR_MOVING] = 1;
   }
 }
 
@@ -479,8 +510,10 @@ static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned p
 #if DXL_PROFILE == DXL_PROFILE_AX12A
       const bool locked_addr = a >= CT_ADDR_ID && a < CT_EEPROM_SIZE;
 #else
-      const bool locked_addr = (a < CT_ADDR_TORQUE_ENABLE || a > CT_ADDR_TORQUE_LIMIT + 1) &&
-                               a != CT_ADDR_REGISTERED_INSTRUCTION; /* REG_WRITE and ACTION set and clear it */
+      /* the items Lock refuses: all but 24..35, less what instructions change by themselves
+       * (Registered Instruction: REG_WRITE and ACTION; Present Load and Moving: a committed
+       * write), which the instruction check below covers */
+      const bool locked_addr = a < CT_ADDR_TORQUE_ENABLE || a == CT_ADDR_RESERVED_45 || a >= CT_ADDR_LOCK;
 #endif
       if (locked_addr && before->table[a] != after->table[a] && !(ticked && tick_may_change(a))) {
         fail("%s: while locked, address %u changed %u -> %u", what, a, before->table[a], after->table[a]);
@@ -963,7 +996,7 @@ static void start(world_t *w, input_t *in) {
 /* Whether the RX interrupt's sniff would arm this packet's reply (dxl_servo.h "Streamed
  * replies"), given that it starts only while the finder holds nothing (main.c sniff_start). */
 static bool sniff_arms(const world_t *w, uint8_t id, uint8_t instruction, uint8_t param_count, const uint8_t *params) {
-  if (w->finder.fill != w->finder.release || id != w->servo.table[CT_ADDR_ID] || instruction >= 8u) {
+  if (!dxl_finder_idle(&w->finder) || id != w->servo.table[CT_ADDR_ID] || instruction >= 8u) {
     return false;
   }
   if ((dxl_servo_stream_mask(&w->servo) & (1u << instruction)) == 0) {

@@ -344,5 +344,19 @@ int main(int argc, char **argv) {
   b(12);
   save("reply_time");
 
+  start_one(1);
+  /* Protocol 2.0 frames (docs/policy.md "Framing and bus"): a 2.0 PING of ID 1 skipped whole,
+   * a 2.0 frame whose data hold a whole 1.0 PING of this servo, a 2.0 header cut by a gap;
+   * each followed by a 1.0 PING */
+  bytes(12, FUZZ_OP_PUSH_BATCH, 10, 0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x03, 0x00, 0x01, 0x19, 0x4E);
+  ping(OWN, BATCH);
+  bytes(2, FUZZ_OP_PUSH_BATCH, 16);
+  bytes(16, 0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x09, 0x00, 0xFF, 0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB, 0x00, 0x00);
+  ping(OWN, BYTES);
+  bytes(8, FUZZ_OP_PUSH_BATCH, 6, 0xFF, 0xFF, 0xFD, 0x00, 0x01, 0x40);
+  wait(101);
+  ping(OWN, EARLY);
+  save("protocol2_frames");
+
   return 0;
 }

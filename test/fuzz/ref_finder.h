@@ -9,6 +9,9 @@
  *     gap before any of them but the first: its checksum ~(ID + LENGTH + body) decides between
  *     a packet (consumed whole) and a bad checksum (reported, then only the front byte goes);
  *   - while such a start is still short of bytes and no gap has ended the bytes held, wait;
+ *   - a Protocol 2.0 frame: FF, FF, FD, 00 (LENGTH 0 after ID 0xFD), ID, LEN_L, LEN_H, all in
+ *     with no gap before any but the first, is dropped with the LEN bytes that follow it as
+ *     they come; a gap ends the frame, and the bytes after the gap are looked at as usual;
  *   - anything else: the front byte goes, and the front is looked at again.
  * A gap is a push or a poll at a time more than 100 ms (16-bit milliseconds, wrapping, as the
  * finder's contract says) after the last byte pushed. It holds up to REF_FINDER_CAPACITY bytes,
@@ -31,6 +34,7 @@ typedef struct {
   size_t count;
   bool gap_at_end; /* a poll saw the gap after the last byte held */
   uint16_t last_byte_ms;
+  unsigned skip; /* bytes of a Protocol 2.0 frame still to drop */
 } ref_finder_t;
 
 typedef struct {
