@@ -148,7 +148,7 @@ static void build_states(void) {
   uint8_t area[CT_EEPROM_SIZE];
   uint8_t other[CT_EEPROM_SIZE];
 
-  states[0].name = "factory settings in slot 0 (sequence 0), slot 1 blank";
+  states[0].name = "factory settings in both slots (dxl_image_build: a new servo)";
   factory_area(area);
   dxl_image_build(states[0].image, area);
 
