@@ -89,8 +89,10 @@ uint8_t *dxl_finder_push_slot(dxl_finder_t *finder, uint16_t *room, uint16_t now
 
 void dxl_finder_pushed(dxl_finder_t *finder, uint16_t count, uint16_t now_ms) {
   DXL_OPAQUE(finder); /* 8 B less flash on the ATmega88 (measured) */
-  finder->fill = (uint16_t)(finder->fill + count);
-  finder->last_byte_ms = now_ms;
+  if (count != 0) { /* no byte came: the gap since the last one goes on */
+    finder->fill = (uint16_t)(finder->fill + count);
+    finder->last_byte_ms = now_ms;
+  }
 }
 
 void dxl_finder_push(dxl_finder_t *finder, uint8_t byte, uint16_t now_ms) {

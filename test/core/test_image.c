@@ -10,6 +10,7 @@
 
 #include "dxl_image.h"
 #include "dxl_servo.h"
+#include "eeprom_model.h"
 #include "xorshift32.h"
 
 /* CRC-16/CCITT-FALSE (polynomial 0x1021, initial 0xFFFF, no reflection, no final XOR) the
@@ -187,31 +188,28 @@ static void test_the_sequence_number_is_written_last(void **state) {
   assert_int_equal(dxl_image_write_offset(DXL_IMAGE_SLOT_BYTES - 1u), DXL_IMAGE_OFS_SEQUENCE);
 }
 
-/* The writer of firmware/hal/nvm.c on a byte array: the slot not in use gets the new area
- * with the next sequence number, in dxl_image_write_offset() order, only the differing
- * bytes. With cut_write >= 0 the write of that number (0 = the first byte actually written)
- * leaves garbage in its byte and nothing after it is written. Returns the bytes written. */
+/* One store of area by the writer of firmware/hal/nvm.c (eeprom_model.h), booted from image
+ * as it is: the slot not in use gets the new area with the next sequence number, in
+ * dxl_image_write_offset() order, only the differing bytes. With cut_write >= 0 the write of
+ * that number (0 = the first byte actually written) leaves garbage in its byte and nothing
+ * after it is written. Returns the bytes written. */
 static int write_settings(uint8_t image[DXL_IMAGE_BYTES], const uint8_t *area, int cut_write, uint8_t garbage) {
-  const uint8_t active = dxl_image_newest_slot(image);
-  const uint8_t target = active == DXL_IMAGE_NO_SLOT ? 0u : (uint8_t)(active ^ 1u);
-  const uint8_t sequence =
-      active == DXL_IMAGE_NO_SLOT ? 0u : (uint8_t)(image[dxl_image_slot_offset(active)] + 1u);
-  uint8_t slot[DXL_IMAGE_SLOT_BYTES];
-  dxl_image_slot_build(slot, area, sequence);
-  uint8_t *const eeprom = &image[dxl_image_slot_offset(target)];
+  eeprom_model_t model;
+  memcpy(model.image, image, DXL_IMAGE_BYTES);
+  (void)eeprom_model_boot(&model);
+  eeprom_model_persist(&model, area);
   int written = 0;
-  for (uint8_t step = 0; step < DXL_IMAGE_SLOT_BYTES; step++) {
-    const uint8_t offset = dxl_image_write_offset(step);
-    if (eeprom[offset] == slot[offset]) {
-      continue;
+  for (;;) {
+    const bool cut = written == cut_write;
+    if (!eeprom_model_service(&model, cut ? &garbage : NULL)) {
+      break;
     }
-    if (written == cut_write) {
-      eeprom[offset] = garbage;
-      return written + 1;
-    }
-    eeprom[offset] = slot[offset];
     written++;
+    if (cut) {
+      break;
+    }
   }
+  memcpy(image, model.image, DXL_IMAGE_BYTES);
   return written;
 }
 

@@ -249,6 +249,23 @@ static void test_no_packet_spans_a_gap(void **state) {
   assert_int_equal(run.count, 0);
 }
 
+/* A batch of no bytes (main.c's armed path pushes one while the checksum is still on the
+ * wire) is no byte: the gap since the last byte goes on. Found by fuzz_core. */
+static void test_an_empty_batch_does_not_restart_the_gap(void **state) {
+  (void)state;
+  finder_run_t run;
+  given_finder(&run, 0);
+  ARRIVE(&run, 0xFF, 0xFF, 0x01, 0x02, 0x01);
+  run.now_ms = 60;
+  uint16_t room;
+  (void)dxl_finder_push_slot(&run.finder, &room, run.now_ms);
+  dxl_finder_pushed(&run.finder, 0, run.now_ms);
+  take_results(&run);
+  run.now_ms = DXL_PACKET_GAP_TIMEOUT_MS + 1u;
+  ARRIVE(&run, 0xFB); /* 101 ms after the last byte: not the PING's checksum */
+  assert_int_equal(run.count, 0);
+}
+
 static void test_status_packets_of_other_servos_are_framed(void **state) {
   (void)state;
   finder_run_t run;
@@ -486,6 +503,7 @@ int main(void) {
       cmocka_unit_test(test_poll_discards_a_partial_packet_while_the_line_is_idle),
       cmocka_unit_test(test_a_packet_hidden_behind_a_garbage_header_survives_a_gap),
       cmocka_unit_test(test_no_packet_spans_a_gap),
+      cmocka_unit_test(test_an_empty_batch_does_not_restart_the_gap),
       cmocka_unit_test(test_status_packets_of_other_servos_are_framed),
       cmocka_unit_test(test_back_to_back_packets_are_each_found),
       cmocka_unit_test(test_the_longest_packet_length_255_is_found),

@@ -1,0 +1,1268 @@
+/* The fuzzed core (issue #15): a libFuzzer harness that runs one servo's core and link layer
+ * the way the firmware's main loop does (firmware/app/main.c), from a script decoded from the
+ * input (fuzz_ops.h), and checks after every operation what must always hold. A violation
+ * prints what broke and aborts, so libFuzzer saves the input.
+ *
+ * Driven as main.c drives it: bytes into the finder one at a time or in batches
+ * (dxl_finder_push_slot/pushed, as far as it has room, results taken between), every result
+ * taken until DXL_FIND_NONE; a good packet prepared, committed, dxl_after_commit, then
+ * dxl_after_reply at once or after the reply's time on the wire, while control ticks and
+ * EEPROM writes run (main.c service_reply); a bad checksum through
+ * dxl_servo_reject_checksum; the sniff's path (a streamable packet to this servo while the
+ * finder holds nothing: all but the checksum pushed, the candidate prepared, the checksum
+ * pushed, the early response committed); gap polls and 1 ms control ticks; the EEPROM
+ * writer of nvm.c (test/support/eeprom_model.h) stepped by the script, cut at any byte (the
+ * byte being written left at any value) and the servo powered up again from what is stored.
+ *
+ * Invariants (docs/policy.md sections in quotes):
+ *   - framing: the reference finder (ref_finder.h), fed the same bytes at the same times,
+ *     reports the same packets and bad checksums in the same order ("Framing and bus");
+ *   - replies: a reply only where "Replies" says one is due (ID, broadcast, Status Return
+ *     Level, as the servo was before the packet), a well-formed status packet of the old ID
+ *     with a correct checksum, LENGTH 2, or 2 + n for a READ of n bytes, whose data are the
+ *     table's; its event bits are the packet's, its condition bits those held (the Angle
+ *     Limit condition kept by the harness: "Goal Position and the angle limits"); the Return
+ *     Delay Time is the old one; dxl_servo_answers() and dxl_servo_ping_reply() agree with it;
+ *   - another servo's packet (or a bad checksum of one, or a broadcast one) changes nothing
+ *     and stores nothing;
+ *   - a packet with an event error (range, instruction, checksum: "Instructions and their
+ *     errors") changes nothing but the pending events, and stores nothing;
+ *   - what each instruction does when it succeeds: WRITE, SYNC_WRITE (this servo's first
+ *     slice, when the slices fit), REG_WRITE, ACTION and RESET change exactly their bytes; the
+ *     EEPROM area is stored, and the baud set again, exactly when written;
+ *   - Lock: while set, a packet changes no locked address and stores nothing ("Lock");
+ *   - ranges: every writable item inside its range (ct_items.h; Moving Speed up to 2047 in
+ *     wheel mode) after every packet and every control tick; a tick changes only the Present
+ *     items, Moving, and Torque Enable / Torque Limit to 0 (shutdown);
+ *   - alarms ("Alarms"): after a tick the voltage and overheating conditions are those of the
+ *     sensors against the limits; torque goes off exactly when an alarm selected by Alarm
+ *     Shutdown holds (profile ax12a: Torque Limit 0 too); no drive with torque off;
+ *   - the early prepare: the reply prepared from the candidate is the one the complete packet
+ *     gives, and a streamable packet's reply obeys dxl_servo.h "Streamed replies";
+ *   - EEPROM: whenever no store is under way, the stored settings (repaired as at power-up)
+ *     are the table's EEPROM area; after a cut and a power-up the settings read are the last
+ *     completely stored ones or the ones being stored, and factory defaults (no valid slot)
+ *     only if nothing was ever stored ("Power-up", docs/hardware.md "EEPROM image").
+ */
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dxl_after.h"
+#include "dxl_after_port.h"
+#include "dxl_control.h"
+#include "dxl_image.h"
+#include "dxl_packet.h"
+#include "dxl_protocol.h"
+#include "dxl_servo.h"
+#include "dxl_table.h"
+#include "eeprom_model.h"
+#include "fuzz_ops.h"
+#include "ref_finder.h"
+
+/* Bounds that keep one input's run short. */
+#define MAX_OPS 400u
+#define PRESENT_POSITION_MAX 1023u
+#define MOVING_SPEED_WHEEL_MAX 2047u
+#define CT_PRESENT_FIRST CT_ADDR_PRESENT_POSITION /* 36..43: Present items, written by the tick */
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+/* ---------------------------------------------------------------------------------------
+ * Failure
+ * --------------------------------------------------------------------------------------- */
+
+static size_t op_index;
+
+static void fail(const char *format, ...) __attribute__((format(printf, 1, 2), noreturn));
+static void fail(const char *format, ...) {
+  va_list args;
+  va_start(args, format);
+  fprintf(stderr, "fuzz_core (" AX12_PROFILE_NAME "): invariant broken at operation %zu: ", op_index);
+  vfprintf(stderr, format, args);
+  fputc('\n', stderr);
+  va_end(args);
+  abort();
+}
+
+/* ---------------------------------------------------------------------------------------
+ * Input
+ * --------------------------------------------------------------------------------------- */
+
+typedef struct {
+  const uint8_t *bytes;
+  size_t left;
+} input_t;
+
+static uint8_t take(input_t *in) {
+  if (in->left == 0) {
+    return 0;
+  }
+  in->left--;
+  return *in->bytes++;
+}
+
+static uint16_t take16(input_t *in) {
+  const uint8_t low = take(in);
+  return (uint16_t)(low | ((uint16_t)take(in) << 8));
+}
+
+/* ---------------------------------------------------------------------------------------
+ * The servo as the firmware runs it
+ * --------------------------------------------------------------------------------------- */
+
+typedef struct {
+  dxl_finder_t finder;
+  ref_finder_t ref;
+  dxl_servo_t servo;
+  dxl_control_t control;
+  dxl_sensors_t sensors;
+  eeprom_model_t eeprom;
+  uint16_t now_ms;
+  /* The settings a power-up may find: the last completely stored, and the store under way. */
+  bool have_stored;
+  uint8_t stored[CT_EEPROM_SIZE];
+  bool have_in_flight;
+  uint8_t in_flight[CT_EEPROM_SIZE];
+  unsigned persists; /* dxl_after_port_persist calls */
+  /* docs/policy.md "Goal Position and the angle limits", kept here apart from the core: in
+   * wheel mode, whether a Goal Position was written since wheel mode began. */
+  bool wheel_goal_written;
+  uint8_t uart_baud; /* the last dxl_after_port_set_baud */
+  unsigned baud_sets; /* dxl_after_port_set_baud calls */
+  unsigned reply_ms; /* how long a reply takes on the wire (PACKET mode bit 5), 0: no time */
+} world_t;
+
+static world_t world;
+
+/* The board side of the after-reply policy: the EEPROM writer of nvm.c. */
+void dxl_after_port_persist(void *port, const uint8_t *table) {
+  world_t *w = port;
+  eeprom_model_persist(&w->eeprom, table);
+  memcpy(w->in_flight, table, CT_EEPROM_SIZE);
+  w->have_in_flight = true;
+  w->persists++;
+}
+
+void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
+  world_t *w = port;
+  if (baud_register != w->servo.table[CT_ADDR_BAUD_RATE]) {
+    fail("set_baud(%u) while the Baud Rate register holds %u", baud_register, w->servo.table[CT_ADDR_BAUD_RATE]);
+  }
+  w->uart_baud = baud_register;
+  w->baud_sets++;
+}
+
+/* ---------------------------------------------------------------------------------------
+ * Table invariants
+ * --------------------------------------------------------------------------------------- */
+
+#if DXL_PROFILE == DXL_PROFILE_AX12A
+#define PICK(ax12, ax12a) (ax12a)
+#else
+#define PICK(ax12, ax12a) (ax12)
+#endif
+
+typedef struct {
+  const char *name;
+  uint8_t addr, size, access;
+  uint16_t min, max;
+} item_t;
+
+/* ct_items.h read directly (not through dxl_table.c's descriptors). */
+static const item_t items[] = {
+#define ITEM(name, addr, size, acc, acc_a, min, max, def, def_a) {#name, (addr), (size), PICK(acc, acc_a), (min), (max)},
+    CT_ITEMS(ITEM)
+#undef ITEM
+};
+
+static uint16_t item_value(const uint8_t *table, const item_t *item) {
+  return item->size == 2 ? ct_get_u16(table, item->addr) : table[item->addr];
+}
+
+static void check_ranges(const uint8_t *table, const char *when) {
+  const bool wheel = ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT) == 0 && ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT) == 0;
+  for (size_t i = 0; i < sizeof items / sizeof items[0]; i++) {
+    const item_t *item = &items[i];
+    const uint16_t value = item_value(table, item);
+    uint16_t min = item->min;
+    uint16_t max = item->max;
+    if (item->addr == CT_ADDR_MOVING_SPEED && wheel) {
+      max = MOVING_SPEED_WHEEL_MAX;
+    }
+    if (item->addr == CT_ADDR_LOCK || item->addr == CT_ADDR_REGISTERED_INSTRUCTION) {
+      min = 0; /* Lock reads 0 until written 1; Registered Instruction is 0 or 1 in both profiles */
+      max = 1;
+    }
+    if (item->access == CT_NONE && value != 0) {
+      fail("%s: reserved %s (address %u) holds %u", when, item->name, item->addr, value);
+    }
+    if (item->access == CT_RW && (value < min || value > max)) {
+      fail("%s: %s (address %u) holds %u, outside %u..%u%s", when, item->name, item->addr, value, min, max,
+           wheel ? " (wheel mode)" : "");
+    }
+  }
+}
+
+/* The EEPROM area a power-up makes of stored bytes (docs/policy.md "Power-up"). */
+static void repaired(const uint8_t *stored, uint8_t out[CT_SIZE]) {
+  memset(out, 0, CT_SIZE); /* Lock off: ct_repair_stored_eeprom's precondition */
+  memcpy(out, stored, CT_EEPROM_SIZE);
+  ct_repair_stored_eeprom(out);
+}
+
+/* While no store is under way, what is stored is what runs. */
+static void check_eeprom_idle(const world_t *w, const char *when) {
+  if (eeprom_model_busy(&w->eeprom)) {
+    return;
+  }
+  const uint8_t *stored = dxl_image_settings(w->eeprom.image);
+  if (stored == NULL) {
+    fail("%s: no store under way and no valid settings stored", when);
+  }
+  uint8_t expected[CT_SIZE];
+  repaired(stored, expected);
+  if (memcmp(expected, w->servo.table, CT_EEPROM_SIZE) != 0) {
+    for (uint8_t a = 0; a < CT_EEPROM_SIZE; a++) {
+      if (expected[a] != w->servo.table[a]) {
+        fail("%s: no store under way, but the stored settings differ at address %u (stored %u, table %u)", when, a,
+             expected[a], w->servo.table[a]);
+      }
+    }
+  }
+}
+
+/* Whether a control tick may have changed address a (control_tick() checks how). */
+static bool tick_may_change(uint8_t a) {
+  return a == CT_ADDR_TORQUE_ENABLE || a == CT_ADDR_TORQUE_LIMIT || a == CT_ADDR_TORQUE_LIMIT + 1 ||
+         (a >= CT_PRESENT_FIRST && a <= CT_ADDR_PRESENT_TEMPERATURE) || a == CT_ADDR_MOVING;
+}
+
+/* Tables equal, but where control ticks ran in between (ticked) at the addresses they write. */
+static bool tables_equal(const uint8_t *a, const uint8_t *b, bool ticked) {
+  for (uint8_t addr = 0; addr < CT_SIZE; addr++) {
+    if (a[addr] != b[addr] && !(ticked && tick_may_change(addr))) {
+      return false;
+    }
+  }
+  return true;
+}
+
+/* Servos equal; with ticked, control ticks ran in between: the addresses they write, the held
+ * conditions and the pending events (which they take) are left out. */
+static bool servo_equal(const dxl_servo_t *a, const dxl_servo_t *b, bool compare_events, bool ticked) {
+  return tables_equal(a->table, b->table, ticked) && a->reg_start == b->reg_start && a->reg_len == b->reg_len &&
+         memcmp(a->reg_data, b->reg_data, a->reg_len <= DXL_REG_SLOT_BYTES ? a->reg_len : DXL_REG_SLOT_BYTES) == 0 &&
+         a->goal_written_in_wheel_mode == b->goal_written_in_wheel_mode &&
+         (ticked || a->held_conditions == b->held_conditions) &&
+         (ticked || !compare_events || a->pending_events == b->pending_events);
+}
+
+static void describe_table_difference(const uint8_t *before, const uint8_t *after, char *out, size_t size) {
+  out[0] = '\0';
+  for (uint8_t a = 0; a < CT_SIZE; a++) {
+    if (before[a] != after[a]) {
+      snprintf(out, size, "address %u: %u -> %u", a, before[a], after[a]);
+      return;
+    }
+  }
+  snprintf(out, size, "outside the table (REG_WRITE slot, flags or events)");
+}
+
+/* ---------------------------------------------------------------------------------------
+ * The packet oracle: what a packet must and may do, from docs/policy.md
+ * --------------------------------------------------------------------------------------- */
+
+/* Writes data[0..len) at start into table as a WRITE does (docs/policy.md "WRITE, REG_WRITE
+ * and ACTION", "Motion semantics"): address 44 written 0 clears it, written 1 leaves it; in
+ * joint mode afterwards Moving Speed keeps bits 0..9 only (leaving wheel mode drops the
+ * direction); then Moving and Present Load as a committed write leaves them: with torque off
+ * both 0, with torque on Moving 1 when the goal (clamped to the limits) lies farther from
+ * Present Position than the margin on its side + 2, or a wheel-mode speed Torque Limit lets
+ * through. */
+static void apply_window(uint8_t *table, uint8_t start, const uint8_t *data, uint8_t len) {
+  for (uint8_t i = 0; i < len; i++) {
+    const unsigned addr = (unsigned)start + i;
+    if (addr >= CT_SIZE) {
+      fail("a successful write reaches address %u", addr);
+    }
+    if (addr == CT_ADDR_REGISTERED_INSTRUCTION) {
+      if (data[i] == 0) {
+        table[addr] = 0;
+      }
+      continue;
+    }
+    table[addr] = data[i];
+  }
+  const bool wheel = ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT) == 0 && ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT) == 0;
+  const uint16_t speed = ct_get_u16(table, CT_ADDR_MOVING_SPEED);
+  if (!wheel) {
+    ct_set_u16(table, CT_ADDR_MOVING_SPEED, (uint16_t)(speed & 0x3FFu));
+  }
+  if (table[CT_ADDR_TORQUE_ENABLE] == 0) {
+    table[CT_ADDR_MOVING] = 0;
+    ct_set_u16(table, CT_ADDR_PRESENT_LOAD, 0);
+    return;
+  }
+  bool starts;
+  if (wheel) {
+    const uint16_t torque_limit = ct_get_u16(table, CT_ADDR_TORQUE_LIMIT);
+    starts = (speed & 0x3FFu) != 0 && torque_limit != 0;
+  } else {
+    const int cw = ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT);
+    const int ccw = ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT);
+    int goal = ct_get_u16(table, CT_ADDR_GOAL_POSITION);
+    goal = goal < cw ? cw : goal > ccw ? ccw : goal;
+    const int error = goal - (int)ct_get_u16(table, CT_ADDR_PRESENT_POSITION);
+    const int margin = error > 0 ? table[CT_ADDR_CW_COMPLIANCE_MARGIN] : table[CT_ADDR_CCW_COMPLIANCE_MARGIN];
+    starts = (error < 0 ? -error : error) > margin + 2;
+  }
+  if (starts) {
+    table[CT_ADDR_MOVING] = 1;
+  }
+}
+
+/* docs/policy.md "Replies": whether a good packet is answered, from the servo before it. */
+static bool reply_due(const uint8_t *table, uint8_t id, uint8_t instruction) {
+  if (id == DXL_ID_BROADCAST) {
+    return DXL_PROFILE == DXL_PROFILE_AX12 && instruction == DXL_INST_PING;
+  }
+  if (id != table[CT_ADDR_ID]) {
+    return false;
+  }
+  const uint8_t level = table[CT_ADDR_STATUS_RETURN_LEVEL];
+  return instruction == DXL_INST_PING || (instruction == DXL_INST_READ && level >= 1) || level >= 2;
+}
+
+/* The events a good packet to this servo (or broadcast) must raise when they follow from its
+ * shape alone; *maybe_range is set where a Range Error depends on the values. */
+static uint8_t expected_events(const dxl_servo_t *s, const dxl_packet_t *p, bool *maybe_range) {
+  const uint8_t n = p->param_count;
+  *maybe_range = false;
+  switch (p->instruction) {
+  case DXL_INST_PING:
+    return n == 0 ? 0 : DXL_ERR_INSTRUCTION;
+  case DXL_INST_READ:
+    if (n != 2) {
+      return DXL_ERR_INSTRUCTION;
+    }
+    return (p->params[1] == 0 || (unsigned)p->params[0] + p->params[1] > CT_SIZE) ? DXL_ERR_RANGE : 0;
+  case DXL_INST_WRITE:
+  case DXL_INST_REG_WRITE:
+    if (n < 2) {
+      return DXL_ERR_INSTRUCTION;
+    }
+    *maybe_range = true;
+    return 0;
+  case DXL_INST_ACTION:
+    if (n != 0 || s->table[CT_ADDR_REGISTERED_INSTRUCTION] == 0) {
+      return DXL_ERR_INSTRUCTION;
+    }
+    *maybe_range = true;
+    return 0;
+  case DXL_INST_RESET:
+    return (n != 0 || s->table[CT_ADDR_LOCK] != 0) ? DXL_ERR_INSTRUCTION : 0;
+  case DXL_INST_SYNC_WRITE:
+    if (n < 2 || p->id != DXL_ID_BROADCAST) {
+      return DXL_ERR_INSTRUCTION;
+    }
+    *maybe_range = true;
+    return 0;
+  default:
+    return DXL_ERR_INSTRUCTION;
+  }
+}
+
+/* docs/policy.md "SYNC_WRITE": this servo's first slice, when the slices fill the packet. */
+static bool own_sync_slice(const dxl_packet_t *p, uint8_t own_id, const uint8_t **slice, uint8_t *len) {
+  const unsigned l = p->params[1];
+  const unsigned slices_bytes = p->param_count - 2u;
+  if (l == 0 || slices_bytes == 0 || slices_bytes % (l + 1u) != 0) {
+    return false;
+  }
+  for (unsigned ofs = 2; ofs < p->param_count; ofs += l + 1u) {
+    if (p->params[ofs] == own_id) {
+      *slice = &p->params[ofs + 1u];
+      *len = (uint8_t)l;
+      return true;
+    }
+  }
+  return false;
+}
+
+static void check_status_packet(const dxl_response_t *r, uint8_t id, const char *what) {
+  if (r->length < 6 || r->length > DXL_REPLY_MAX_BYTES) {
+    fail("%s: reply of %u bytes", what, r->length);
+  }
+  const uint8_t *b = r->bytes;
+  if (b[0] != DXL_HEADER_BYTE || b[1] != DXL_HEADER_BYTE) {
+    fail("%s: reply header %02X %02X", what, b[0], b[1]);
+  }
+  if (b[2] != id) {
+    fail("%s: reply from ID %u, the servo's ID was %u", what, b[2], id);
+  }
+  if (b[3] + 4u != r->length) {
+    fail("%s: reply LENGTH %u in %u bytes", what, b[3], r->length);
+  }
+  if (dxl_checksum(&b[2], (uint16_t)(r->length - 3u)) != b[r->length - 1u]) {
+    fail("%s: reply checksum wrong", what);
+  }
+  if (b[DXL_STATUS_ERROR_OFFSET] & 0x80u) {
+    fail("%s: error byte bit 7 set", what);
+  }
+}
+
+static unsigned written_window(const dxl_servo_t *before, const dxl_packet_t *p, unsigned *start);
+
+/* Checks a packet's reply and effects. before: the servo before it; persists_before: the
+ * store count before it. */
+static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned persists_before,
+                         unsigned baud_sets_before, const dxl_packet_t *p, const dxl_response_t *r,
+                         uint8_t pending_before, bool ticked) {
+  const dxl_servo_t *after = &w->servo;
+  const uint8_t old_id = before->table[CT_ADDR_ID];
+  const bool addressed = p->id == old_id || p->id == DXL_ID_BROADCAST;
+  const bool stored = w->persists != persists_before;
+  const bool baud_set = w->baud_sets != baud_sets_before;
+  char diff[96];
+  char what[96];
+  snprintf(what, sizeof what, "packet ID %u instruction 0x%02X with %u parameters", p->id, p->instruction,
+           p->param_count);
+
+  check_ranges(after->table, what);
+
+  /* The reply. */
+  if (reply_due(before->table, p->id, p->instruction) != (r->length != 0)) {
+    fail("%s: %s (Status Return Level %u, servo ID %u)", what, r->length != 0 ? "answered" : "not answered",
+         before->table[CT_ADDR_STATUS_RETURN_LEVEL], old_id);
+  }
+  if (dxl_servo_answers(before, p->id, p->instruction) != (r->length != 0)) {
+    fail("%s: dxl_servo_answers disagrees with the reply", what);
+  }
+  if (!addressed) {
+    if (!servo_equal(before, after, true, false) || stored || baud_set || r->after != 0 || r->events != 0) {
+      describe_table_difference(before->table, after->table, diff, sizeof diff);
+      fail("%s: another servo's packet changed something (%s)%s", what, diff, stored ? ", stored" : "");
+    }
+    return;
+  }
+  bool maybe_range;
+  const uint8_t must = expected_events(before, p, &maybe_range);
+  if (r->events != must && !(maybe_range && must == 0 && r->events == DXL_ERR_RANGE)) {
+    fail("%s: events 0x%02X, expected 0x%02X%s", what, r->events, must, maybe_range ? " or a Range Error" : "");
+  }
+  if (r->length != 0) {
+    check_status_packet(r, old_id, what);
+    const uint8_t error = r->bytes[DXL_STATUS_ERROR_OFFSET];
+    if ((error & DXL_ERR_EVENTS) != r->events) {
+      fail("%s: reply error 0x%02X, events 0x%02X", what, error, r->events);
+    }
+    const uint8_t held = DXL_ERR_VOLTAGE | DXL_ERR_OVERHEATING | DXL_ERR_OVERLOAD;
+    if ((error & held) != (before->held_conditions & held)) {
+      fail("%s: reply error 0x%02X, held conditions 0x%02X", what, error, before->held_conditions);
+    }
+    if (r->delay_us != DXL_RETURN_DELAY_UNIT_US * before->table[CT_ADDR_RETURN_DELAY_TIME]) {
+      fail("%s: reply delay %u us at Return Delay Time %u", what, r->delay_us,
+           before->table[CT_ADDR_RETURN_DELAY_TIME]);
+    }
+    const bool read_ok = p->instruction == DXL_INST_READ && r->events == 0;
+    const unsigned expected_length = 6u + (read_ok ? p->params[1] : 0u);
+    if (r->length != expected_length) {
+      fail("%s: reply of %u bytes, %u asked", what, r->length, expected_length);
+    }
+    if (read_ok && memcmp(&r->bytes[5], &before->table[p->params[0]], p->params[1]) != 0) {
+      fail("%s: READ data are not the table's", what);
+    }
+    if (p->instruction == DXL_INST_PING && p->param_count == 0) {
+      dxl_response_t ready;
+      memset(&ready, 0, sizeof ready);
+      dxl_servo_ping_reply(before, &ready);
+      if (ready.length != r->length || memcmp(ready.bytes, r->bytes, r->length) != 0 ||
+          ready.delay_us != r->delay_us) {
+        fail("%s: dxl_servo_ping_reply differs from the PING's prepared reply", what);
+      }
+    }
+  }
+
+  /* Errors change nothing (docs/policy.md "Instructions and their errors"). */
+  if (r->events != 0) {
+    if (!servo_equal(before, after, false, ticked) || stored || baud_set) {
+      describe_table_difference(before->table, after->table, diff, sizeof diff);
+      fail("%s: error 0x%02X but something changed (%s)%s", what, r->events, diff, stored ? ", stored" : "");
+    }
+    if (!ticked && after->pending_events != (uint8_t)(pending_before | r->events)) {
+      fail("%s: pending events 0x%02X after 0x%02X with events 0x%02X", what, after->pending_events,
+           pending_before, r->events);
+    }
+    return;
+  }
+
+  /* Lock (docs/policy.md "Lock"). */
+  if (before->table[CT_ADDR_LOCK] != 0) {
+    if (after->table[CT_ADDR_LOCK] != 1 || stored) {
+      fail("%s: while locked, Lock reads %u%s", what, after->table[CT_ADDR_LOCK], stored ? ", stored" : "");
+    }
+    for (uint8_t a = 0; a < CT_SIZE; a++) {
+#if DXL_PROFILE == DXL_PROFILE_AX12A
+      const bool locked_addr = a >= CT_ADDR_ID && a < CT_EEPROM_SIZE;
+#else
+      /* the items Lock refuses: all but 24..35, less what instructions change by themselves
+       * (Registered Instruction: REG_WRITE and ACTION; Present Load and Moving: a committed
+       * write), which the instruction check below covers */
+      const bool locked_addr = a < CT_ADDR_TORQUE_ENABLE || a == CT_ADDR_RESERVED_45 || a >= CT_ADDR_LOCK;
+#endif
+      if (locked_addr && before->table[a] != after->table[a] && !(ticked && tick_may_change(a))) {
+        fail("%s: while locked, address %u changed %u -> %u", what, a, before->table[a], after->table[a]);
+      }
+    }
+  }
+
+  /* What the instruction does; the baud is set again after a write of address 4 or RESET,
+   * and only then ("Replies": after the reply). */
+  uint8_t expected[CT_SIZE];
+  memcpy(expected, before->table, CT_SIZE);
+  bool expect_store = false;
+  unsigned window_start = 0;
+  const unsigned window_len = written_window(before, p, &window_start);
+  bool expect_baud = window_len != 0 && window_start <= CT_ADDR_BAUD_RATE && window_start + window_len > CT_ADDR_BAUD_RATE;
+  switch (p->instruction) {
+  case DXL_INST_WRITE:
+    apply_window(expected, p->params[0], &p->params[1], (uint8_t)(p->param_count - 1u));
+    expect_store = p->params[0] < CT_EEPROM_SIZE;
+    break;
+  case DXL_INST_REG_WRITE:
+    expected[CT_ADDR_REGISTERED_INSTRUCTION] = 1;
+    if (after->reg_start != p->params[0] || after->reg_len != p->param_count - 1u ||
+        memcmp(after->reg_data, &p->params[1], after->reg_len) != 0) {
+      fail("%s: the REG_WRITE slot does not hold the window", what);
+    }
+    break;
+  case DXL_INST_ACTION:
+    expected[CT_ADDR_REGISTERED_INSTRUCTION] = 0;
+    apply_window(expected, before->reg_start, before->reg_data, before->reg_len);
+    expected[CT_ADDR_REGISTERED_INSTRUCTION] = 0;
+    expect_store = before->reg_start < CT_EEPROM_SIZE;
+    break;
+  case DXL_INST_RESET: {
+    dxl_servo_t fresh;
+    /* the present position as the reset found it (ticks may have run during the reply) */
+    dxl_servo_power_up(&fresh, NULL, ct_get_u16(after->table, CT_ADDR_PRESENT_POSITION));
+    memcpy(expected, fresh.table, CT_SIZE);
+    expect_store = true;
+    expect_baud = true;
+    break;
+  }
+  case DXL_INST_SYNC_WRITE: {
+    const uint8_t *slice = NULL;
+    uint8_t len = 0;
+    if (own_sync_slice(p, old_id, &slice, &len)) {
+      apply_window(expected, p->params[0], slice, len);
+      expect_store = p->params[0] < CT_EEPROM_SIZE;
+    }
+    break;
+  }
+  default: /* PING, READ */
+    break;
+  }
+  if (!tables_equal(expected, after->table, ticked)) {
+    describe_table_difference(expected, after->table, diff, sizeof diff);
+    fail("%s: the table is not what the instruction writes (expected -> found at %s)", what, diff);
+  }
+  if (baud_set != expect_baud) {
+    fail("%s: %s", what, baud_set ? "the baud was set again without a write of it" : "Baud Rate written, not applied");
+  }
+  if (stored != expect_store) {
+    fail("%s: %s", what, stored ? "stored the settings without writing the EEPROM area" : "EEPROM area written, not stored");
+  }
+  if (!ticked && p->instruction != DXL_INST_RESET && after->pending_events != pending_before) {
+    fail("%s: pending events changed without an error", what);
+  }
+}
+
+/* ---------------------------------------------------------------------------------------
+ * main.c's paths
+ * --------------------------------------------------------------------------------------- */
+
+static void compare_with_reference(world_t *w, dxl_find_result_t found, const dxl_packet_t *p) {
+  ref_packet_t ref;
+  const dxl_find_result_t expected = ref_finder_next(&w->ref, &ref);
+  if (found != expected) {
+    fail("the finder says %d, the reference finder %d (reference: ID %u instruction 0x%02X, %u parameters)", found,
+         expected, ref.id, ref.instruction, ref.param_count);
+  }
+  if (found == DXL_FIND_NONE) {
+    return;
+  }
+  if (p->id != ref.id || p->instruction != ref.instruction || p->param_count != ref.param_count ||
+      p->checksum != ref.checksum || memcmp(p->params, ref.params, p->param_count) != 0) {
+    fail("the finder's packet (ID %u instruction 0x%02X, %u parameters) is not the reference finder's (ID %u "
+         "instruction 0x%02X, %u parameters)",
+         p->id, p->instruction, p->param_count, ref.id, ref.instruction, ref.param_count);
+  }
+}
+
+static void after_store_step(world_t *w) {
+  if (!eeprom_model_busy(&w->eeprom) && w->have_in_flight) {
+    memcpy(w->stored, w->in_flight, CT_EEPROM_SIZE);
+    w->have_stored = true;
+    w->have_in_flight = false;
+  }
+}
+
+static void control_tick(world_t *w);
+
+static bool wheel_mode(const uint8_t *table) {
+  return ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT) == 0 && ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT) == 0;
+}
+
+/* The Angle Limit condition of a table: the goal outside CW..CCW, or in wheel mode a goal
+ * written since wheel mode began. */
+static bool angle_condition(const world_t *w, const uint8_t *table) {
+  if (wheel_mode(table)) {
+    return w->wheel_goal_written;
+  }
+  const uint16_t goal = ct_get_u16(table, CT_ADDR_GOAL_POSITION);
+  return goal < ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT) || goal > ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT);
+}
+
+/* The window a committed packet without an error wrote (length 0: none), from the packet
+ * (and for ACTION the slot, whose contents check_packet verified at its REG_WRITE). */
+static unsigned written_window(const dxl_servo_t *before, const dxl_packet_t *p, unsigned *start) {
+  const uint8_t *slice;
+  uint8_t len;
+  switch (p->instruction) {
+  case DXL_INST_WRITE:
+    *start = p->params[0];
+    return p->param_count - 1u;
+  case DXL_INST_ACTION:
+    *start = before->reg_start;
+    return before->reg_len;
+  case DXL_INST_SYNC_WRITE:
+    if (own_sync_slice(p, before->table[CT_ADDR_ID], &slice, &len)) {
+      *start = p->params[0];
+      return len;
+    }
+    return 0;
+  default:
+    return 0;
+  }
+}
+
+/* The wheel-mode goal flag after a packet took the table from before to after. */
+static void update_wheel_goal(world_t *w, const uint8_t *before, const uint8_t *after, unsigned start,
+                              unsigned len) {
+  if (!wheel_mode(after)) {
+    w->wheel_goal_written = false;
+  } else if (len != 0 && start <= CT_ADDR_GOAL_POSITION + 1u && start + len > CT_ADDR_GOAL_POSITION) {
+    w->wheel_goal_written = true;
+  } else if (!wheel_mode(before)) {
+    w->wheel_goal_written = false; /* entering wheel mode with an old goal does not raise it */
+  }
+}
+
+static void check_angle_condition(const world_t *w, const char *when) {
+  const bool expected = angle_condition(w, w->servo.table);
+  if (((dxl_servo_conditions(&w->servo) & DXL_ERR_ANGLE_LIMIT) != 0) != expected) {
+    fail("%s: the core's Angle Limit condition is %s, the policy's %s", when, expected ? "off" : "on",
+         expected ? "on" : "off");
+  }
+}
+
+/* main.c on_packet(), with early != NULL: the sniff's path, whose response was prepared from
+ * the candidate. */
+static void handle_packet(world_t *w, const dxl_packet_t *p, const dxl_response_t *early) {
+  dxl_servo_t before;
+  memcpy(&before, &w->servo, sizeof before);
+  const unsigned persists_before = w->persists;
+  const unsigned baud_sets_before = w->baud_sets;
+  dxl_response_t r;
+  dxl_servo_prepare(&w->servo, p, &r);
+  if (early != NULL) {
+    if (early->length != r.length || memcmp(early->bytes, r.bytes, r.length) != 0 ||
+        early->delay_us != r.delay_us || early->after != r.after || early->action != r.action ||
+        early->window_start != r.window_start || early->window_len != r.window_len || early->events != r.events ||
+        (r.window_data != NULL && r.action != DXL_ACTION_NONE &&
+         memcmp(early->window_data, r.window_data, r.window_len) != 0)) {
+      fail("the response prepared before the checksum differs from the complete packet's");
+    }
+    memcpy(&r, early, sizeof r); /* main.c commits what it prepared early */
+  }
+  dxl_servo_commit(&w->servo, &r);
+  dxl_after_commit(&w->servo, r.after, w);
+  if (r.events == 0 && (p->id == before.table[CT_ADDR_ID] || p->id == DXL_ID_BROADCAST)) {
+    unsigned start = 0;
+    const unsigned len = written_window(&before, p, &start);
+    update_wheel_goal(w, before.table, w->servo.table, start, len);
+  }
+  /* The reply's Angle Limit bit: the condition as the packet leaves the table (before what
+   * follows the reply, RESET's defaults). */
+  if (r.length >= 6 && ((r.bytes[DXL_STATUS_ERROR_OFFSET] & DXL_ERR_ANGLE_LIMIT) != 0) !=
+                           angle_condition(w, w->servo.table)) {
+    fail("packet ID %u instruction 0x%02X: reply error 0x%02X, but the Angle Limit condition is %s", p->id,
+         p->instruction, r.bytes[DXL_STATUS_ERROR_OFFSET], angle_condition(w, w->servo.table) ? "on" : "off");
+  }
+  bool ticked = false;
+  if (r.length != 0 && early == NULL && w->reply_ms != 0) {
+    /* The reply is on the wire for reply_ms: the main loop runs control ticks and EEPROM
+     * writes (one every 4 ms) meanwhile and takes no packet; what follows the reply waits for
+     * its end (main.c service_reply). */
+    for (unsigned i = 0; i < w->reply_ms; i++) {
+      w->now_ms++;
+      control_tick(w);
+      if ((i & 3u) == 3u) {
+        (void)eeprom_model_service(&w->eeprom, NULL);
+        after_store_step(w);
+      }
+    }
+    ticked = true;
+  }
+  dxl_after_reply(&w->servo, early != NULL ? 0u : r.after, w); /* the reply has left (or none) */
+  if (r.after & DXL_AFTER_FACTORY_RESET) {
+    w->wheel_goal_written = false;
+  }
+  check_packet(w, &before, persists_before, baud_sets_before, p, &r, before.pending_events, ticked);
+  check_angle_condition(w, "after a packet");
+  if (w->persists != persists_before || memcmp(before.table, w->servo.table, CT_EEPROM_SIZE) != 0) {
+    check_eeprom_idle(w, "after a packet"); /* else as it was before the packet */
+  }
+}
+
+/* main.c on_bad_checksum(). */
+static void handle_bad_checksum(world_t *w, const dxl_packet_t *p) {
+  dxl_servo_t before;
+  memcpy(&before, &w->servo, sizeof before);
+  const unsigned persists_before = w->persists;
+  const unsigned baud_sets_before = w->baud_sets;
+  dxl_response_t r;
+  dxl_servo_reject_checksum(&w->servo, p, &r);
+  const uint8_t old_id = before.table[CT_ADDR_ID];
+  const bool own = p->id == old_id;
+  const bool due = own && before.table[CT_ADDR_STATUS_RETURN_LEVEL] >= 2;
+  if (due != (r.length != 0)) {
+    fail("bad checksum to ID %u (servo ID %u, level %u): %s", p->id, old_id,
+         before.table[CT_ADDR_STATUS_RETURN_LEVEL], r.length != 0 ? "answered" : "not answered");
+  }
+  if (r.length != 0) {
+    check_status_packet(&r, old_id, "checksum error reply");
+    const uint8_t error = r.bytes[DXL_STATUS_ERROR_OFFSET];
+    if ((error & DXL_ERR_EVENTS) != DXL_ERR_CHECKSUM || r.length != 6 ||
+        ((error & DXL_ERR_ANGLE_LIMIT) != 0) != angle_condition(w, before.table)) {
+      fail("checksum error reply: error 0x%02X, %u bytes", error, r.length);
+    }
+  }
+  if (!servo_equal(&before, &w->servo, false, false) || w->persists != persists_before ||
+      w->baud_sets != baud_sets_before || r.after != 0 ||
+      r.action != DXL_ACTION_NONE) {
+    fail("a bad checksum (ID %u) changed something", p->id);
+  }
+  const uint8_t pending = own ? (uint8_t)(before.pending_events | DXL_ERR_CHECKSUM) : before.pending_events;
+  if (w->servo.pending_events != pending) {
+    fail("a bad checksum (ID %u): pending events 0x%02X", p->id, w->servo.pending_events);
+  }
+}
+
+/* service_rx()'s finder loop: every result until DXL_FIND_NONE, each checked against the
+ * reference finder. */
+static void drain(world_t *w) {
+  for (;;) {
+    dxl_packet_t packet;
+    const dxl_find_result_t found = dxl_finder_next(&w->finder, &packet);
+    compare_with_reference(w, found, &packet);
+    if (found == DXL_FIND_NONE) {
+      return;
+    }
+    if (found == DXL_FIND_PACKET) {
+      handle_packet(w, &packet, NULL);
+    } else {
+      handle_bad_checksum(w, &packet);
+    }
+  }
+}
+
+static void push_byte(world_t *w, uint8_t byte) {
+  dxl_finder_push(&w->finder, byte, w->now_ms);
+  if (!ref_finder_push(&w->ref, byte, w->now_ms)) {
+    fail("the reference finder is full");
+  }
+  drain(w);
+}
+
+/* main.c push_waiting_bytes() until all are in: each batch as far as the finder has room,
+ * its results taken (service_rx) before the next. An empty batch (count 0) is what main.c's
+ * armed path does while the checksum is still on the wire: push_slot (which polls the gap)
+ * and pushed(0). */
+static void push_batch(world_t *w, const uint8_t *bytes, size_t count) {
+  size_t done = 0;
+  do {
+    uint16_t room;
+    uint8_t *slot = dxl_finder_push_slot(&w->finder, &room, w->now_ms);
+    if (room == 0 && count != 0) {
+      fail("the finder has no room after its results were taken");
+    }
+    const size_t n = count - done < room ? count - done : room;
+    if (n != 0) {
+      memcpy(slot, bytes + done, n);
+    }
+    dxl_finder_pushed(&w->finder, (uint16_t)n, w->now_ms);
+    ref_finder_poll(&w->ref, w->now_ms); /* push_slot polls (a push of no byte is no byte) */
+    for (size_t i = 0; i < n; i++) {
+      if (!ref_finder_push(&w->ref, bytes[done + i], w->now_ms)) {
+        fail("the reference finder is full");
+      }
+    }
+    done += n;
+    drain(w);
+  } while (done < count);
+}
+
+static void gap_poll(world_t *w) {
+  ref_finder_poll(&w->ref, w->now_ms);
+  if (dxl_finder_poll(&w->finder, w->now_ms)) {
+    drain(w);
+  }
+}
+
+/* One control tick. Only the Present items and Moving may change, and Torque Enable (and in
+ * profile ax12a Torque Limit) only to 0: every other address is compared, so the ranges hold
+ * after a tick because they held before it (check_ranges would cost the fuzzer most of its
+ * time here: ticks come by the thousand). */
+static void control_tick(world_t *w) {
+  uint8_t before[CT_SIZE];
+  memcpy(before, w->servo.table, CT_SIZE);
+  const uint8_t reg_len = w->servo.reg_len;
+  const bool goal_flag = w->servo.goal_written_in_wheel_mode;
+  const uint8_t pending = w->servo.pending_events;
+  bool led;
+  const int16_t drive = dxl_control_tick(&w->control, &w->servo, &w->sensors, &led);
+  if (drive < -DXL_DRIVE_MAX || drive > DXL_DRIVE_MAX) {
+    fail("control tick: drive %d", drive);
+  }
+  const uint8_t *t = w->servo.table;
+  /* docs/policy.md "Alarms": the voltage and temperature conditions from the limits; Alarm
+   * Shutdown turns torque off when an alarm it selects holds (a condition, or an event since
+   * the last tick), and nothing else does. */
+  const dxl_sensors_t *in = &w->sensors;
+  const bool voltage = in->voltage_dv < t[CT_ADDR_LOWEST_LIMIT_VOLTAGE] || in->voltage_dv > t[CT_ADDR_HIGHEST_LIMIT_VOLTAGE];
+  const bool heat = in->temperature_c > t[CT_ADDR_HIGHEST_LIMIT_TEMP];
+  const uint8_t conditions = dxl_servo_conditions(&w->servo);
+  if (((conditions & DXL_ERR_VOLTAGE) != 0) != voltage || ((conditions & DXL_ERR_OVERHEATING) != 0) != heat) {
+    fail("control tick: conditions 0x%02X at %u dV (limits %u..%u), %u degC (limit %u)", conditions, in->voltage_dv,
+         t[CT_ADDR_LOWEST_LIMIT_VOLTAGE], t[CT_ADDR_HIGHEST_LIMIT_VOLTAGE], in->temperature_c,
+         t[CT_ADDR_HIGHEST_LIMIT_TEMP]);
+  }
+  const bool shut_down = before[CT_ADDR_TORQUE_ENABLE] != 0 && ((conditions | pending) & t[CT_ADDR_ALARM_SHUTDOWN]) != 0;
+  if ((before[CT_ADDR_TORQUE_ENABLE] != 0 && t[CT_ADDR_TORQUE_ENABLE] == 0) != shut_down) {
+    fail("control tick: Torque Enable %u -> %u with alarms 0x%02X, Alarm Shutdown 0x%02X", before[CT_ADDR_TORQUE_ENABLE],
+         t[CT_ADDR_TORQUE_ENABLE], conditions | pending, t[CT_ADDR_ALARM_SHUTDOWN]);
+  }
+  if (t[CT_ADDR_TORQUE_ENABLE] == 0 && drive != 0) {
+    fail("control tick: drive %d with torque off", drive);
+  }
+  if (DXL_PROFILE == DXL_PROFILE_AX12A && shut_down && ct_get_u16(t, CT_ADDR_TORQUE_LIMIT) != 0) {
+    fail("control tick: shut down (profile ax12a) with Torque Limit %u", ct_get_u16(t, CT_ADDR_TORQUE_LIMIT));
+  }
+  for (uint8_t a = 0; a < CT_PRESENT_FIRST; a++) {
+    if (t[a] != before[a]) {
+      const bool shutdown = (a == CT_ADDR_TORQUE_ENABLE || (DXL_PROFILE == DXL_PROFILE_AX12A &&
+                                                            (a == CT_ADDR_TORQUE_LIMIT || a == CT_ADDR_TORQUE_LIMIT + 1))) &&
+                            t[a] == 0;
+      if (!shutdown) {
+        fail("control tick changed address %u: %u -> %u", a, before[a], t[a]);
+      }
+    }
+  }
+  if (memcmp(&t[CT_ADDR_REGISTERED_INSTRUCTION], &before[CT_ADDR_REGISTERED_INSTRUCTION], 2) != 0 ||
+      memcmp(&t[CT_ADDR_LOCK], &before[CT_ADDR_LOCK], CT_SIZE - CT_ADDR_LOCK) != 0 || t[CT_ADDR_MOVING] > 1) {
+    fail("control tick changed an address above the Present items other than Moving, or Moving reads %u",
+         t[CT_ADDR_MOVING]);
+  }
+  if (w->servo.pending_events != 0 || reg_len != w->servo.reg_len || goal_flag != w->servo.goal_written_in_wheel_mode) {
+    fail("control tick: events left pending, or the REG_WRITE slot or wheel goal flag changed");
+  }
+}
+
+/* ---------------------------------------------------------------------------------------
+ * Power
+ * --------------------------------------------------------------------------------------- */
+
+static void power_up(world_t *w) {
+  const uint8_t *stored = eeprom_model_boot(&w->eeprom);
+  if (stored == NULL) {
+    if (w->have_stored) {
+      fail("power-up found no valid settings, but settings were stored");
+    }
+  } else {
+    const bool is_stored = w->have_stored && memcmp(stored, w->stored, CT_EEPROM_SIZE) == 0;
+    const bool is_in_flight = w->have_in_flight && memcmp(stored, w->in_flight, CT_EEPROM_SIZE) == 0;
+    if (!is_stored && !is_in_flight) {
+      fail("power-up found settings never stored (ID %u, baud %u)", stored[CT_ADDR_ID], stored[CT_ADDR_BAUD_RATE]);
+    }
+    memcpy(w->stored, stored, CT_EEPROM_SIZE);
+  }
+  w->have_stored = stored != NULL;
+  w->have_in_flight = false;
+  dxl_servo_power_up(&w->servo, stored, w->sensors.position_counts);
+  w->wheel_goal_written = false;
+  if (stored == NULL) {
+    dxl_after_port_persist(w, w->servo.table); /* main.c: factory defaults, written back */
+  }
+  w->uart_baud = w->servo.table[CT_ADDR_BAUD_RATE];
+  dxl_finder_init(&w->finder);
+  ref_finder_init(&w->ref);
+  dxl_control_init(&w->control);
+  check_ranges(w->servo.table, "after power-up");
+  check_angle_condition(w, "after power-up");
+  check_eeprom_idle(w, "after power-up");
+}
+
+/* A stored area from the input: raw values, so out-of-range ones occur. */
+static void take_area(input_t *in, uint8_t area[CT_EEPROM_SIZE]) {
+  dxl_servo_t factory;
+  dxl_servo_power_up(&factory, NULL, 0);
+  memcpy(area, factory.table, CT_EEPROM_SIZE);
+  area[CT_ADDR_ID] = take(in);
+  area[CT_ADDR_BAUD_RATE] = take(in);
+  area[CT_ADDR_RETURN_DELAY_TIME] = take(in);
+  area[CT_ADDR_STATUS_RETURN_LEVEL] = take(in);
+  ct_set_u16(area, CT_ADDR_CW_ANGLE_LIMIT, take16(in));
+  ct_set_u16(area, CT_ADDR_CCW_ANGLE_LIMIT, take16(in));
+  ct_set_u16(area, CT_ADDR_MAX_TORQUE, take16(in));
+  area[CT_ADDR_ALARM_LED] = take(in);
+  area[CT_ADDR_ALARM_SHUTDOWN] = take(in);
+}
+
+static void start(world_t *w, input_t *in) {
+  uint8_t *image = w->eeprom.image;
+  memset(image, 0xFF, DXL_IMAGE_BYTES);
+  uint8_t a[CT_EEPROM_SIZE];
+  uint8_t b[CT_EEPROM_SIZE];
+  switch (take(in) % FUZZ_START_COUNT) {
+  case FUZZ_START_BLANK:
+    break;
+  case FUZZ_START_ONE_SLOT:
+    take_area(in, a);
+    dxl_image_build(image, a);
+    break;
+  case FUZZ_START_TWO_SLOTS: {
+    take_area(in, a);
+    take_area(in, b);
+    const uint8_t sequence = take(in);
+    dxl_image_slot_build(image, a, sequence);
+    dxl_image_slot_build(&image[dxl_image_slot_offset(1)], b, (uint8_t)(sequence + take(in)));
+    break;
+  }
+  default: { /* FUZZ_START_TORN_SLOT: what a store cut before this power-up leaves */
+    take_area(in, a);
+    take_area(in, b);
+    const uint8_t sequence = take(in);
+    const unsigned writes = take(in) % (DXL_IMAGE_SLOT_BYTES + 1u);
+    const uint8_t torn = take(in);
+    dxl_servo_t factory;
+    dxl_servo_power_up(&factory, NULL, 0);
+    eeprom_model_t before_cut;
+    memset(before_cut.image, 0xFF, DXL_IMAGE_BYTES);
+    dxl_image_slot_build(before_cut.image, factory.table, (uint8_t)(sequence - 1u));
+    dxl_image_slot_build(&before_cut.image[dxl_image_slot_offset(1)], a, sequence);
+    (void)eeprom_model_boot(&before_cut);
+    eeprom_model_persist(&before_cut, b);
+    for (unsigned i = 0; i < writes; i++) {
+      (void)eeprom_model_service(&before_cut, NULL);
+    }
+    (void)eeprom_model_service(&before_cut, &torn);
+    memcpy(image, before_cut.image, DXL_IMAGE_BYTES);
+    break;
+  }
+  }
+  /* What the EEPROM holds before the first power-up counts as stored. */
+  const uint8_t *settings = dxl_image_settings(image);
+  w->have_stored = settings != NULL;
+  if (settings != NULL) {
+    memcpy(w->stored, settings, CT_EEPROM_SIZE);
+  }
+  w->sensors.position_counts = (uint16_t)(take16(in) & PRESENT_POSITION_MAX);
+  w->sensors.voltage_dv = 96;
+  w->sensors.temperature_c = 25;
+  power_up(w);
+}
+
+/* ---------------------------------------------------------------------------------------
+ * Operations
+ * --------------------------------------------------------------------------------------- */
+
+/* Whether the RX interrupt's sniff would arm this packet's reply (dxl_servo.h "Streamed
+ * replies"), given that it starts only while the finder holds nothing (main.c sniff_start). */
+static bool sniff_arms(const world_t *w, uint8_t id, uint8_t instruction, uint8_t param_count, const uint8_t *params) {
+  if (!dxl_finder_idle(&w->finder) || id != w->servo.table[CT_ADDR_ID] || instruction >= 8u) {
+    return false;
+  }
+  if ((dxl_servo_stream_mask(&w->servo) & (1u << instruction)) == 0) {
+    return false;
+  }
+  return !(instruction == DXL_INST_WRITE && param_count >= 1 && params[0] < DXL_STREAM_WRITE_MIN_ADDR);
+}
+
+/* main.c service_rx()'s armed path: all but the checksum, the candidate prepared, then the
+ * checksum; a mismatch goes on through the finder like any byte. */
+static void deliver_early(world_t *w, const uint8_t *bytes, size_t count, uint8_t id, uint8_t instruction,
+                          uint8_t param_count, const uint8_t *params) {
+  push_batch(w, bytes, count - 1u); /* its drain() is main.c's dxl_finder_next(): NONE */
+  dxl_packet_t candidate;
+  dxl_finder_candidate(&w->finder, &candidate);
+  if (candidate.id != id || candidate.instruction != instruction || candidate.param_count != param_count ||
+      memcmp(candidate.params, params, param_count) != 0) {
+    fail("the candidate before the checksum is not the packet on the wire");
+  }
+  dxl_response_t early;
+  memset(&early, 0, sizeof early);
+  const bool streamed = candidate.instruction != DXL_INST_PING || candidate.param_count != 0;
+  if (streamed) {
+    dxl_servo_prepare(&w->servo, &candidate, &early);
+    if (early.length == 0 || dxl_after_waits_for_reply(early.after) || early.bytes[0] != DXL_HEADER_BYTE ||
+        early.bytes[1] != DXL_HEADER_BYTE || early.bytes[2] != w->servo.table[CT_ADDR_ID]) {
+      fail("a streamed packet (instruction 0x%02X) breaks the stream contract: reply of %u bytes, after 0x%02X",
+           candidate.instruction, early.length, early.after);
+    }
+  }
+  dxl_finder_push(&w->finder, bytes[count - 1u], w->now_ms);
+  if (!ref_finder_push(&w->ref, bytes[count - 1u], w->now_ms)) {
+    fail("the reference finder is full");
+  }
+  dxl_packet_t packet;
+  const dxl_find_result_t result = dxl_finder_next(&w->finder, &packet);
+  compare_with_reference(w, result, &packet);
+  if (result == DXL_FIND_PACKET) {
+    if (packet.id != candidate.id || packet.instruction != candidate.instruction ||
+        packet.param_count != candidate.param_count) {
+      fail("the sniff's packet is not the finder's");
+    }
+    if (streamed) {
+      handle_packet(w, &packet, &early);
+    } else {
+      handle_packet(w, &packet, NULL); /* the ready reply: check_packet compares it with the prepared one */
+    }
+  } else if (result == DXL_FIND_BAD_CHECKSUM) {
+    handle_bad_checksum(w, &packet);
+  }
+  if (result != DXL_FIND_NONE) {
+    drain(w);
+  }
+}
+
+static void op_packet(world_t *w, input_t *in) {
+  const uint8_t sel = take(in);
+  const uint8_t mode = take(in);
+  const uint8_t own = w->servo.table[CT_ADDR_ID];
+  uint8_t id;
+  switch (sel & 3u) {
+  case FUZZ_ID_OWN:
+    id = own;
+    break;
+  case FUZZ_ID_BROADCAST:
+    id = DXL_ID_BROADCAST;
+    break;
+  case FUZZ_ID_GIVEN:
+    id = take(in);
+    break;
+  default:
+    id = (uint8_t)(own + 1u);
+    break;
+  }
+  static const uint8_t instructions[] = {DXL_INST_PING,   DXL_INST_READ,  DXL_INST_WRITE,      DXL_INST_REG_WRITE,
+                                         DXL_INST_ACTION, DXL_INST_RESET, DXL_INST_SYNC_WRITE, 0};
+  const unsigned inst_sel = (sel >> 2) & 7u;
+  const uint8_t instruction = inst_sel == FUZZ_INST_GIVEN ? take(in) : instructions[inst_sel];
+  uint8_t params[256];
+  unsigned n = 0;
+  if (sel & FUZZ_SEL_RAW_PARAMS) {
+    n = take(in);
+    if (n > 253u) {
+      n = 253u; /* LENGTH <= 255 */
+    }
+    for (unsigned i = 0; i < n; i++) {
+      params[i] = take(in);
+    }
+  } else {
+    switch (instruction) {
+    case DXL_INST_READ:
+      params[n++] = take(in);
+      params[n++] = take(in);
+      break;
+    case DXL_INST_WRITE:
+    case DXL_INST_REG_WRITE: {
+      params[n++] = (uint8_t)(take(in) % CT_SIZE);
+      const unsigned l = take(in) % FUZZ_WRITE_L_MOD + 1u;
+      for (unsigned i = 0; i < l; i++) {
+        params[n++] = take(in);
+      }
+      break;
+    }
+    case DXL_INST_SYNC_WRITE: {
+      params[n++] = (uint8_t)(take(in) % CT_SIZE);
+      const unsigned l = take(in) % FUZZ_SYNC_L_MOD + 1u;
+      params[n++] = (uint8_t)l;
+      const unsigned slices = take(in) % FUZZ_SYNC_N_MOD;
+      for (unsigned s = 0; s < slices; s++) {
+        params[n++] = (take(in) & 1u) ? own : take(in);
+        for (unsigned i = 0; i < l; i++) {
+          params[n++] = take(in);
+        }
+      }
+      break;
+    }
+    default:
+      break;
+    }
+  }
+  uint8_t bytes[3 + 2 + 256 + 2];
+  size_t count = 0;
+  for (unsigned i = 0; i < 2u + ((mode >> 3) & 3u); i++) {
+    bytes[count++] = DXL_HEADER_BYTE;
+  }
+  const size_t id_at = count;
+  bytes[count++] = id;
+  bytes[count++] = (uint8_t)(n + 2u);
+  bytes[count++] = instruction;
+  memcpy(&bytes[count], params, n);
+  count += n;
+  uint8_t checksum = dxl_checksum(&bytes[id_at], (uint16_t)(count - id_at));
+  if (mode & FUZZ_MODE_BAD_CHECKSUM) {
+    checksum ^= (uint8_t)(take(in) | 1u);
+  }
+  bytes[count++] = checksum;
+
+  w->reply_ms = (mode & FUZZ_MODE_REPLY_TIME) ? take(in) : 0u;
+  switch (mode & 3u) {
+  case FUZZ_DELIVER_BYTES:
+    for (size_t i = 0; i < count; i++) {
+      push_byte(w, bytes[i]);
+    }
+    break;
+  case FUZZ_DELIVER_BATCH:
+    push_batch(w, bytes, count);
+    break;
+  case FUZZ_DELIVER_SPLIT: {
+    const uint8_t wait = take(in);
+    const size_t split = take(in) % (count + 1u);
+    push_batch(w, bytes, split);
+    w->now_ms = (uint16_t)(w->now_ms + wait);
+    gap_poll(w);
+    push_batch(w, bytes + split, count - split);
+    break;
+  }
+  default: /* FUZZ_DELIVER_EARLY */
+    if (sniff_arms(w, id, instruction, (uint8_t)n, params)) {
+      deliver_early(w, bytes, count, id, instruction, (uint8_t)n, params);
+    } else {
+      push_batch(w, bytes, count);
+    }
+    break;
+  }
+  w->reply_ms = 0;
+}
+
+static void op_ticks(world_t *w, input_t *in) {
+  unsigned n = take(in);
+  const uint8_t flags = take(in);
+  if (flags & 1u) {
+    n *= FUZZ_TICKS_MANY;
+  }
+  int position = take16(in) & PRESENT_POSITION_MAX;
+  const int step = (int8_t)take(in);
+  w->sensors.voltage_dv = take(in);
+  w->sensors.temperature_c = take(in);
+  for (unsigned i = 0; i < n; i++) {
+    position += step;
+    position = position < 0 ? 0 : position > (int)PRESENT_POSITION_MAX ? (int)PRESENT_POSITION_MAX : position;
+    w->sensors.position_counts = (uint16_t)position;
+    w->now_ms++;
+    gap_poll(w);
+    control_tick(w);
+  }
+}
+
+static void op_cut(world_t *w, input_t *in) {
+  const uint8_t how = take(in);
+  const uint8_t garbage = take(in);
+  w->sensors.position_counts = (uint16_t)(take16(in) & PRESENT_POSITION_MAX);
+  if ((how & 1u) && eeprom_model_busy(&w->eeprom)) {
+    (void)eeprom_model_service(&w->eeprom, &garbage); /* the byte being written is torn */
+  }
+  power_up(w);
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
+  world_t *w = &world;
+  memset(w, 0, sizeof *w);
+  input_t in = {data, size};
+  op_index = 0;
+  start(w, &in);
+  while (in.left != 0 && op_index < MAX_OPS) {
+    op_index++;
+    switch (take(&in) % FUZZ_OP_COUNT) {
+    case FUZZ_OP_PUSH_BYTE:
+      push_byte(w, take(&in));
+      break;
+    case FUZZ_OP_PUSH_BATCH: {
+      uint8_t bytes[256];
+      const unsigned n = take(&in);
+      for (unsigned i = 0; i < n; i++) {
+        bytes[i] = take(&in);
+      }
+      push_batch(w, bytes, n);
+      break;
+    }
+    case FUZZ_OP_WAIT:
+      w->now_ms = (uint16_t)(w->now_ms + take(&in));
+      gap_poll(w);
+      break;
+    case FUZZ_OP_WAIT_LONG:
+      w->now_ms = (uint16_t)(w->now_ms + take16(&in));
+      gap_poll(w);
+      break;
+    case FUZZ_OP_TICKS:
+      op_ticks(w, &in);
+      break;
+    case FUZZ_OP_PACKET:
+      op_packet(w, &in);
+      break;
+    case FUZZ_OP_EEPROM: {
+      const unsigned n = take(&in) + 1u;
+      for (unsigned i = 0; i < n; i++) {
+        (void)eeprom_model_service(&w->eeprom, NULL);
+        after_store_step(w);
+      }
+      check_eeprom_idle(w, "after EEPROM writes");
+      break;
+    }
+    case FUZZ_OP_EEPROM_FLUSH:
+      (void)eeprom_model_flush(&w->eeprom);
+      after_store_step(w);
+      check_eeprom_idle(w, "after the store");
+      break;
+    case FUZZ_OP_CUT:
+      op_cut(w, &in);
+      break;
+    default: { /* FUZZ_OP_EMPTY_BATCH */
+      const uint8_t none[1] = {0};
+      push_batch(w, none, 0);
+      break;
+    }
+      break;
+    }
+  }
+  /* The end: the store runs out, then a power cycle finds exactly the settings in use. */
+  (void)eeprom_model_flush(&w->eeprom);
+  after_store_step(w);
+  check_eeprom_idle(w, "at the end");
+  uint8_t in_use[CT_EEPROM_SIZE];
+  memcpy(in_use, w->servo.table, CT_EEPROM_SIZE);
+  power_up(w);
+  if (memcmp(in_use, w->servo.table, CT_EEPROM_SIZE) != 0) {
+    fail("a power cycle after the store does not bring back the settings in use");
+  }
+  return 0;
+}
