@@ -60,6 +60,7 @@
 #include "dxl_protocol.h"
 #include "dxl_servo.h"
 #include "dxl_table.h"
+#include "item_ranges.h"
 #include "eeprom_model.h"
 #include "fuzz_ops.h"
 #include "ref_finder.h"
@@ -161,24 +162,7 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
  * Table invariants
  * --------------------------------------------------------------------------------------- */
 
-#if DXL_PROFILE == DXL_PROFILE_AX12A
-#define PICK(ax12, ax12a) (ax12a)
-#else
-#define PICK(ax12, ax12a) (ax12)
-#endif
-
-typedef struct {
-  const char *name;
-  uint8_t addr, size, access;
-  uint16_t min, max;
-} item_t;
-
-/* ct_items.h read directly (not through dxl_table.c's descriptors). */
-static const item_t items[] = {
-#define ITEM(name, addr, size, acc, acc_a, min, max, def, def_a) {#name, (addr), (size), PICK(acc, acc_a), (min), (max)},
-    CT_ITEMS(ITEM)
-#undef ITEM
-};
+/* items[], ITEM_COUNT: item_ranges.h */
 
 static uint16_t item_value(const uint8_t *table, const item_t *item) {
   return item->size == 2 ? ct_get_u16(table, item->addr) : table[item->addr];

@@ -29,6 +29,7 @@
 #include "dxl_protocol.h"
 #include "dxl_servo.h"
 #include "dxl_table.h"
+#include "item_ranges.h"
 #include "eeprom_model.h"
 
 #define PRESENT_POSITION 512u
@@ -52,24 +53,7 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
 
 /* ---- ct_items.h read directly: ranges and patterns ---- */
 
-#if DXL_PROFILE == DXL_PROFILE_AX12A
-#define PICK(ax12, ax12a) (ax12a)
-#else
-#define PICK(ax12, ax12a) (ax12)
-#endif
-
-typedef struct {
-  const char *name;
-  uint8_t addr, size, access;
-  uint16_t min, max;
-} item_t;
-
-static const item_t items[] = {
-#define ITEM(name, addr, size, acc, acc_a, min, max, def, def_a) {#name, (addr), (size), PICK(acc, acc_a), (min), (max)},
-    CT_ITEMS(ITEM)
-#undef ITEM
-};
-#define ITEM_COUNT (sizeof items / sizeof items[0])
+/* items[], ITEM_COUNT: item_ranges.h */
 
 static const item_t *item_at(uint8_t addr) {
   for (size_t i = 0; i < ITEM_COUNT; i++) {
