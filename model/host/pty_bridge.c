@@ -20,6 +20,10 @@ static double pty_cycles_per_bit(void *ctx) { return ((const pty_bridge_t *)ctx)
 
 static void pty_deliver(void *ctx, const bus_rx_t *rx) {
   pty_bridge_t *pty = ctx;
+  if (pty->held) {
+    pty->hidden_from_client++;
+    return;
+  }
   if (pty->out_count == pty->out_cap) {
     const size_t cap = pty->out_cap ? pty->out_cap * 2u : 1024u;
     pty_out_byte_t *grown = malloc(cap * sizeof(*grown));
@@ -348,7 +352,7 @@ static bool take_client(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx
   bool moved = false;
   const uint32_t limit = usb_adapter_tx_queue_limit(&pty->adapter);
   const double max_queued = limit ? (double)limit : (double)PTY_BRIDGE_MAX_QUEUED;
-  while (pty->chunk_count && pty->chunks[pty->chunk_head].at <= now) {
+  while (!pty->held && pty->chunk_count && pty->chunks[pty->chunk_head].at <= now) {
     if (pty->last_from_client_end > now) {
       const double queued = (double)(pty->last_from_client_end - now) / (pty->cycles_per_bit * 10.0);
       if (queued > max_queued) {
@@ -394,11 +398,13 @@ bool pty_bridge_pump(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx, d
 sim_cycles_t pty_bridge_next_input(const pty_bridge_t *pty) {
   pthread_mutex_t *lock = (pthread_mutex_t *)&pty->lock;
   pthread_mutex_lock(lock);
-  const sim_cycles_t at = pty->chunk_stamped ? pty->chunks[pty->chunk_head].at : SIM_CYCLES_NEVER;
+  const sim_cycles_t at = pty->chunk_stamped && !pty->held ? pty->chunks[pty->chunk_head].at : SIM_CYCLES_NEVER;
   pthread_mutex_unlock(lock);
   return at;
 }
 
 sim_cycles_t pty_bridge_next_output(const pty_bridge_t *pty) { return usb_adapter_next_release(&pty->adapter); }
+
+void pty_bridge_hold(pty_bridge_t *pty, bool held) { pty->held = held; }
 
 int pty_bridge_wake_fd(const pty_bridge_t *pty) { return pty->wake_pipe[0]; }

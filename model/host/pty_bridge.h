@@ -91,6 +91,9 @@ typedef struct {
   uint64_t from_client;
   uint64_t to_client;
   uint64_t dropped_to_client; /* the client did not read and the pty buffer was full */
+  /* pty_bridge_hold(): another master (the dashboard's packets, emu_control.c) has the bus. */
+  bool held;
+  uint64_t hidden_from_client; /* bytes the bus carried while held, not shown to the client */
 } pty_bridge_t;
 
 /* Opens the pty (raw, initial speed initial_bps) behind the USB adapter `adapter` and joins
@@ -117,6 +120,12 @@ sim_cycles_t pty_bridge_next_input(const pty_bridge_t *pty);
  * SIM_CYCLES_NEVER. Run the world no further before pumping again, so they reach the client
  * at that simulated time. */
 sim_cycles_t pty_bridge_next_output(const pty_bridge_t *pty);
+
+/* While held, the client's bytes wait in the bridge (they enter the wire when it is let go,
+ * in order, at that time) and the bytes on the bus are not shown to the client: another
+ * master's exchange with a servo is invisible to the client, which sees at most its own
+ * packet delayed by that exchange. */
+void pty_bridge_hold(pty_bridge_t *pty, bool held);
 
 /* A descriptor that becomes readable when the client has written (for poll); drained by
  * pty_bridge_pump. */

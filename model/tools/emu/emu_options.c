@@ -44,6 +44,11 @@ static const char usage_text[] =
     "                      client when a USB packet fills or the timer expires; a write\n"
     "                      reaches the wire at the next USB frame; the bus sees the baud\n"
     "                      the chip makes of the client's (docs/emulator.md)\n"
+    "  --world ID:OPTION=VALUE\n"
+    "                      servo ID's own world, over the bus-wide options below (repeat\n"
+    "                      for more), e.g. --world 3:load-torque=1.2 --world 3:supply=7\n"
+    "  --control PATH      the control socket for the dashboard and `ax12 world`\n"
+    "                      (default <state-dir>/control.sock; docs/dashboard.md)\n"
     "  --stats             print bus, adapter and timing statistics to stderr on exit\n"
     "  --bit-error-rate RATE\n"
     "                      noise: every bit on the wire (start, 8 data, stop) flips with\n"
@@ -107,9 +112,56 @@ static bool parse_bit_error_rate(const char *text, double *rate) {
   return true;
 }
 
+/* "ID:OPTION=VALUE", the option a world option (plant_options.h) whose value it accepts. */
+static bool parse_servo_world(const char *text, servo_world_option_t *out, char *err, size_t err_len) {
+  const char *colon = strchr(text, ':');
+  const char *equals = colon ? strchr(colon, '=') : NULL;
+  unsigned id = 0;
+  char id_text[8];
+  if (!colon || !equals || (size_t)(colon - text) >= sizeof(id_text)) {
+    snprintf(err, err_len, "'%s': ID:OPTION=VALUE, e.g. 3:load-torque=1.2", text);
+    return false;
+  }
+  snprintf(id_text, sizeof(id_text), "%.*s", (int)(colon - text), text);
+  if (!parse_uint(id_text, ID_LIST_MAX_ID, &id)) {
+    snprintf(err, err_len, "'%s': the ID must be 0..%u", text, ID_LIST_MAX_ID);
+    return false;
+  }
+  const size_t name_len = (size_t)(equals - colon - 1);
+  if (name_len == 0 || name_len >= sizeof(out->option) || strlen(equals + 1) >= sizeof(out->value)) {
+    snprintf(err, err_len, "'%s': unknown world option", text);
+    return false;
+  }
+  out->id = (uint8_t)id;
+  snprintf(out->option, sizeof(out->option), "%.*s", (int)name_len, colon + 1);
+  snprintf(out->value, sizeof(out->value), "%s", equals + 1);
+  plant_options_t scratch;
+  plant_options_default(&scratch);
+  return plant_options_parse(&scratch, out->option, out->value, err, err_len);
+}
+
+bool emu_servo_world(const serve_options_t *o, uint8_t id, plant_options_t *world, char *err, size_t err_len) {
+  *world = o->world;
+  for (size_t i = 0; i < o->servo_world_count; i++) {
+    const servo_world_option_t *w = &o->servo_world[i];
+    if (w->id != id) {
+      continue;
+    }
+    if (strncmp(w->option, "load-", 5) == 0 && world->load_option && strcmp(world->load_option, w->option) != 0 &&
+        world->load_option == o->world.load_option) {
+      world->load_option = NULL; /* the servo's own load replaces the bus-wide one */
+    }
+    if (!plant_options_parse(world, w->option, w->value, err, err_len)) {
+      return false;
+    }
+  }
+  return true;
+}
+
 int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
   enum { OPT_IDS = 256, OPT_LINK, OPT_STATE_DIR, OPT_PROFILE, OPT_MCU, OPT_BAUD, OPT_REALTIME, OPT_FAST, OPT_ELF,
-         OPT_FIRMWARE_DIR, OPT_STATS, OPT_BIT_ERROR_RATE, OPT_SEED, OPT_ADAPTER };
+         OPT_FIRMWARE_DIR, OPT_STATS, OPT_BIT_ERROR_RATE, OPT_SEED, OPT_ADAPTER,
+         OPT_WORLD, OPT_CONTROL };
   static const struct option long_options[] = {
       {"ids", required_argument, NULL, OPT_IDS},
       {"link", required_argument, NULL, OPT_LINK},
@@ -125,6 +177,8 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       {"bit-error-rate", required_argument, NULL, OPT_BIT_ERROR_RATE},
       {"seed", required_argument, NULL, OPT_SEED},
       {"adapter", required_argument, NULL, OPT_ADAPTER},
+      {"world", required_argument, NULL, OPT_WORLD},
+      {"control", required_argument, NULL, OPT_CONTROL},
       PLANT_LONG_OPTIONS,
       {"help", no_argument, NULL, 'h'},
       {NULL, 0, NULL, 0},
@@ -206,6 +260,22 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
         return fail_usage("--adapter: %s", err);
       }
       break;
+    case OPT_WORLD:
+      if (o->servo_world_count == EMU_SERVO_WORLD_MAX) {
+        return fail_usage("more than %u --world options", EMU_SERVO_WORLD_MAX);
+      }
+      if (!parse_servo_world(optarg, &o->servo_world[o->servo_world_count], err, sizeof(err))) {
+        return fail_usage("--world: %s", err);
+      }
+      o->servo_world_count++;
+      break;
+    case OPT_CONTROL:
+      if (!optarg[0]) {
+        return fail_usage("empty --control");
+      }
+      snprintf(o->control_path, sizeof(o->control_path), "%s", optarg);
+      o->control_explicit = true;
+      break;
     case 'h':
       emu_print_usage(stdout);
       return 0;
@@ -223,6 +293,26 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
   }
   if (optind < argc) {
     return fail_usage("unexpected argument '%s'", argv[optind]);
+  }
+  for (size_t i = 0; i < o->servo_world_count; i++) {
+    bool on_bus = false;
+    for (size_t k = 0; k < o->id_count; k++) {
+      on_bus |= o->ids[k] == o->servo_world[i].id;
+    }
+    if (!on_bus) {
+      return fail_usage("--world %u:%s: no servo %u in --ids", o->servo_world[i].id, o->servo_world[i].option,
+                        o->servo_world[i].id);
+    }
+    plant_options_t world;
+    if (!emu_servo_world(o, o->servo_world[i].id, &world, err, sizeof(err))) {
+      return fail_usage("--world, servo %u: %s", o->servo_world[i].id, err);
+    }
+  }
+  if (!o->control_path[0]) {
+    const int n = snprintf(o->control_path, sizeof(o->control_path), "%s/control.sock", o->state_dir);
+    if (n < 0 || (size_t)n >= sizeof(o->control_path)) {
+      o->control_path[0] = '\0';
+    }
   }
   if (!o->elf[0]) {
     snprintf(o->elf, sizeof(o->elf), "%s/ax12-%s-%s.elf", o->firmware_dir, eeprom_profile_name(o->profile), o->mcu);

@@ -15,6 +15,16 @@
 #include "plant_options.h"
 #include "usb_adapter.h"
 
+/* --world ID:OPTION=VALUE entries at most. */
+#define EMU_SERVO_WORLD_MAX 64u
+
+/* One servo's own world option (--world ID:OPTION=VALUE), applied over the bus-wide ones. */
+typedef struct {
+  uint8_t id;
+  char option[16]; /* a world option's name without dashes, e.g. "load-torque" */
+  char value[64];
+} servo_world_option_t;
+
 /* Exit status for bad command-line input. */
 #define EMU_EXIT_USAGE 2
 
@@ -33,8 +43,17 @@ typedef struct {
   double bit_error_rate; /* per bit on the wire, [0, 1) */
   uint64_t noise_seed;
   usb_adapter_config_t adapter; /* between the pty and the bus (--adapter) */
-  plant_options_t world;
+  plant_options_t world;         /* every servo's world (--supply, --load-torque, ...) */
+  servo_world_option_t servo_world[EMU_SERVO_WORLD_MAX];
+  size_t servo_world_count;
+  char control_path[PATH_MAX];   /* the control socket (emu_control.h) */
+  bool control_explicit;         /* given with --control: failing to open it is an error */
 } serve_options_t;
+
+/* Servo `id`'s world: the bus-wide options with its own --world entries over them (a load of
+ * its own replaces the bus-wide one). False with err set when they conflict (the parser
+ * checks every servo's, so after it this is always true). */
+bool emu_servo_world(const serve_options_t *o, uint8_t id, plant_options_t *world, char *err, size_t err_len);
 
 /* Prints the usage text, the world options included. */
 void emu_print_usage(FILE *out);

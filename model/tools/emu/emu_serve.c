@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "emu_control.h"
 #include "pacing.h"
 #include "pty_bridge.h"
 #include "servo.h"
@@ -144,9 +145,13 @@ int emu_serve(const serve_options_t *o) {
       return 1;
     }
   }
-  ax12_plant_t plant;
-  plant_options_build(&o->world, &plant);
+  /* Each servo's world: the bus-wide options with its own --world ones over them; changed
+   * at run time through the control socket. */
+  static plant_options_t worlds[WORLD_MAX_SERVOS];
   for (size_t i = 0; i < world->servo_count; i++) {
+    ax12_plant_t plant;
+    (void)emu_servo_world(o, o->ids[i], &worlds[i], err, sizeof(err)); /* checked by the parser */
+    plant_options_build(&worlds[i], &plant);
     servo_attach_plant(world->servos[i], &plant);
   }
   /* The pty starts at the first servo's baud, so a client that sets none still talks. */
@@ -159,6 +164,25 @@ int emu_serve(const serve_options_t *o) {
     release_locks(locks, lock_count);
     world_destroy(world);
     return 1;
+  }
+
+  static emu_control_t control;
+  bool control_open = false;
+  if (o->control_path[0]) {
+    control_open = emu_control_open(&control, o->control_path, world, &pty, worlds, o->ids, o->elf, err,
+                                    sizeof(err)) == 0;
+    if (!control_open && o->control_explicit) {
+      fprintf(stderr, "ax12-emu: %s\n", err);
+      pty_bridge_close(&pty);
+      release_locks(locks, lock_count);
+      world_destroy(world);
+      return 1;
+    }
+    if (!control_open) {
+      fprintf(stderr, "ax12-emu: warning: %s; running without a control socket (give one with --control)\n", err);
+    }
+  } else if (o->control_explicit) {
+    fprintf(stderr, "ax12-emu: --control: the path is too long\n");
   }
 
   struct sigaction sa;
@@ -213,8 +237,17 @@ int emu_serve(const serve_options_t *o) {
     if (next_output > world->now && next_output < until) {
       until = next_output;
     }
+    if (control_open) {
+      const sim_cycles_t next_control = emu_control_next_event(&control);
+      if (next_control < until) {
+        until = next_control;
+      }
+    }
     world_run_until(world, until);
     (void)pty_bridge_pump(&pty, o->realtime ? sim_of_wall : NULL, &pacing);
+    if (control_open) {
+      emu_control_poll(&control);
+    }
     if (!warned_persist) {
       for (size_t i = 0; i < world->servo_count; i++) {
         if (world->servos[i]->persist_errors) {
@@ -239,6 +272,9 @@ int emu_serve(const serve_options_t *o) {
     }
   }
 
+  if (control_open) {
+    emu_control_close(&control);
+  }
   const int failures = world_settle_and_persist(world, sim_ms(SHUTDOWN_SETTLE_MS));
   if (failures) {
     for (size_t i = 0; i < world->servo_count; i++) {
