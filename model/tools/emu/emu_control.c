@@ -130,6 +130,8 @@ static cJSON *status_json(const emu_control_t *c, bool event, bool with_table) {
     cJSON_AddStringToObject(j, "op", "status");
   }
   cJSON_AddNumberToObject(j, "time_us", sim_cycles_to_us(c->world->now));
+  cJSON_AddStringToObject(j, "profile", eeprom_profile_name(c->world->profile));
+  cJSON_AddStringToObject(j, "mcu", c->world->mcu);
   cJSON *servos = cJSON_AddArrayToObject(j, "servos");
   for (size_t i = 0; i < c->world->servo_count; i++) {
     cJSON_AddItemToArray(servos, servo_json(c, i, with_table));

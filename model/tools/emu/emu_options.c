@@ -49,6 +49,9 @@ static const char usage_text[] =
     "                      for more), e.g. --world 3:load-torque=1.2 --world 3:supply=7\n"
     "  --control PATH      the control socket for the dashboard and `ax12 world`\n"
     "                      (default <state-dir>/control.sock; docs/dashboard.md)\n"
+    "  --dashboard [HOST:]PORT\n"
+    "                      also serve the live dashboard at http://HOST:PORT/ (HOST\n"
+    "                      default 127.0.0.1: this machine only; docs/dashboard.md)\n"
     "  --stats             print bus, adapter and timing statistics to stderr on exit\n"
     "  --bit-error-rate RATE\n"
     "                      noise: every bit on the wire (start, 8 data, stop) flips with\n"
@@ -112,6 +115,14 @@ static bool parse_bit_error_rate(const char *text, double *rate) {
   return true;
 }
 
+/* "PORT" or "HOST:PORT" with PORT 1..65535 (the host is checked when the dashboard binds). */
+static bool listen_address_valid(const char *text) {
+  const char *colon = strrchr(text, ':');
+  const char *port = colon ? colon + 1 : text;
+  unsigned value = 0;
+  return (colon == NULL || colon > text) && parse_uint(port, 65535, &value) && value > 0;
+}
+
 /* "ID:OPTION=VALUE", the option a world option (plant_options.h) whose value it accepts. */
 static bool parse_servo_world(const char *text, servo_world_option_t *out, char *err, size_t err_len) {
   const char *colon = strchr(text, ':');
@@ -161,7 +172,7 @@ bool emu_servo_world(const serve_options_t *o, uint8_t id, plant_options_t *worl
 int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
   enum { OPT_IDS = 256, OPT_LINK, OPT_STATE_DIR, OPT_PROFILE, OPT_MCU, OPT_BAUD, OPT_REALTIME, OPT_FAST, OPT_ELF,
          OPT_FIRMWARE_DIR, OPT_STATS, OPT_BIT_ERROR_RATE, OPT_SEED, OPT_ADAPTER,
-         OPT_WORLD, OPT_CONTROL };
+         OPT_WORLD, OPT_CONTROL, OPT_DASHBOARD };
   static const struct option long_options[] = {
       {"ids", required_argument, NULL, OPT_IDS},
       {"link", required_argument, NULL, OPT_LINK},
@@ -179,6 +190,7 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       {"adapter", required_argument, NULL, OPT_ADAPTER},
       {"world", required_argument, NULL, OPT_WORLD},
       {"control", required_argument, NULL, OPT_CONTROL},
+      {"dashboard", required_argument, NULL, OPT_DASHBOARD},
       PLANT_LONG_OPTIONS,
       {"help", no_argument, NULL, 'h'},
       {NULL, 0, NULL, 0},
@@ -275,6 +287,12 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       }
       snprintf(o->control_path, sizeof(o->control_path), "%s", optarg);
       o->control_explicit = true;
+      break;
+    case OPT_DASHBOARD:
+      if (!listen_address_valid(optarg)) {
+        return fail_usage("bad --dashboard '%s': [HOST:]PORT, PORT 1..65535", optarg);
+      }
+      o->dashboard = optarg;
       break;
     case 'h':
       emu_print_usage(stdout);

@@ -48,6 +48,7 @@ typedef struct {
   size_t servo_world_count;
   char control_path[PATH_MAX];   /* the control socket (emu_control.h) */
   bool control_explicit;         /* given with --control: failing to open it is an error */
+  const char *dashboard;         /* --dashboard [HOST:]PORT, NULL: none (emu_dashboard.h) */
 } serve_options_t;
 
 /* Servo `id`'s world: the bus-wide options with its own --world entries over them (a load of

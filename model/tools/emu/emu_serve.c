@@ -9,6 +9,7 @@
 #include <string.h>
 
 #include "emu_control.h"
+#include "emu_dashboard.h"
 #include "pacing.h"
 #include "pty_bridge.h"
 #include "servo.h"
@@ -184,6 +185,20 @@ int emu_serve(const serve_options_t *o) {
   } else if (o->control_explicit) {
     fprintf(stderr, "ax12-emu: --control: the path is too long\n");
   }
+  emu_dashboard_t dashboard = {0};
+  if (o->dashboard) {
+    if (!control_open || emu_dashboard_start(&dashboard, o->control_path, o->dashboard, err, sizeof(err)) != 0) {
+      fprintf(stderr, "ax12-emu: --dashboard: %s\n", control_open ? err : "it needs the control socket");
+      if (control_open) {
+        emu_control_close(&control);
+      }
+      pty_bridge_close(&pty);
+      release_locks(locks, lock_count);
+      world_destroy(world);
+      return 1;
+    }
+    fprintf(stderr, "ax12-emu: dashboard at %s\n", dashboard.url);
+  }
 
   struct sigaction sa;
   memset(&sa, 0, sizeof(sa));
@@ -272,6 +287,7 @@ int emu_serve(const serve_options_t *o) {
     }
   }
 
+  emu_dashboard_stop(&dashboard);
   if (control_open) {
     emu_control_close(&control);
   }

@@ -1,0 +1,274 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The live dashboard of `scripts/ax12 serve --dashboard [HOST:]PORT` (docs/dashboard.md): a web
+page (web/dashboard, charts by uPlot from npm, installed by scripts/setup: nothing is fetched
+at run time) fed through a WebSocket from the emulator's control socket.
+
+The server holds two connections to the control socket: one subscribed to telemetry (25 Hz,
+with every control table) and to the bus monitor's packets, one for the page's requests. A
+page's edit of a control-table item becomes a Protocol 1.0 WRITE that the emulator puts on the
+bus (so it obeys every rule a client's write obeys; the servo's status packet is the answer);
+a world change goes to the emulator as it is. Bad input gets a message and changes nothing;
+a page that stops reading is dropped, and nothing a page does stops the bus.
+
+Started by ax12-emu with --control PATH --listen HOST:PORT; prints one line
+`listening http://HOST:PORT/` on stdout once it serves, then logs only to stderr. It exits
+when the emulator closes the control socket.
+"""
+import argparse
+import asyncio
+import json
+import os
+import sys
+import time
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(REPO, "python"))
+
+from aiohttp import WSMsgType, web  # noqa: E402
+
+WEB = os.path.join(REPO, "web", "dashboard")
+UPLOT = os.path.join(WEB, "node_modules", "uplot", "dist")
+TELEMETRY_HZ = 25
+PACKETS_KEPT = 5000       # for a page opened later
+PAGE_QUEUE = 2000         # lines waiting for a page before it is dropped
+SEND_TIMEOUT_S = 5.0
+
+
+def log(message):
+    print("ax12 dashboard: %s" % message, file=sys.stderr, flush=True)
+
+
+class Emulator:
+    """The control socket: requests on one connection (one at a time), events on another."""
+
+    def __init__(self, path):
+        self.path = path
+        self.lock = asyncio.Lock()
+        self.reader = self.writer = None
+        self.latest = None            # the last telemetry event
+        self.packets = []             # the last PACKETS_KEPT bus-monitor packets
+        self.pages = {}               # open WebSocket -> its queue of lines to send
+
+    async def connect(self):
+        self.reader, self.writer = await asyncio.open_unix_connection(self.path, limit=1 << 24)
+        events_reader, self.events_writer = await asyncio.open_unix_connection(self.path, limit=1 << 24)
+        self.events_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": TELEMETRY_HZ, "table": True,
+                                        "packets": True}).encode() + b"\n")
+        await self.events_writer.drain()
+        return events_reader
+
+    async def request(self, message):
+        async with self.lock:
+            self.writer.write(json.dumps(message).encode() + b"\n")
+            await self.writer.drain()
+            while True:
+                line = await asyncio.wait_for(self.reader.readline(), SEND_TIMEOUT_S)
+                if not line:
+                    raise ConnectionError("the emulator closed the control socket")
+                reply = json.loads(line)
+                if "event" not in reply:
+                    return reply
+
+    async def pump_events(self, events_reader):
+        """Relays telemetry and packets to every page until the emulator goes away."""
+        while True:
+            line = await events_reader.readline()
+            if not line:
+                return
+            event = json.loads(line)
+            if event.get("event") == "telemetry":
+                self.latest = event
+            elif event.get("event") == "packet":
+                self.packets.append(event)
+                del self.packets[:-PACKETS_KEPT]
+            elif "event" not in event:
+                continue
+            text = line.decode().strip()
+            for ws, queue in list(self.pages.items()):
+                try:
+                    queue.put_nowait(text)
+                except asyncio.QueueFull:  # a page that does not keep up is dropped
+                    self.pages.pop(ws, None)
+                    asyncio.ensure_future(ws.close())
+
+
+def servo_of(emu, slot):
+    """The servo of the latest telemetry with that slot (its --ids entry), or None."""
+    if emu.latest is None:
+        return None
+    for s in emu.latest["servos"]:
+        if s["slot"] == slot:
+            return s
+    return None
+
+
+def error_names(error):
+    import ax12_table
+    return [name.replace("_", " ").title() for bit, name in sorted(ax12_table.ERROR_BITS.items()) if error & bit]
+
+
+async def page_write(emu, msg):
+    """A control-table edit: checked for what a packet can carry, then a WRITE on the bus."""
+    import ax12_packets
+    import ax12_table
+    slot, addr, value = msg.get("slot"), msg.get("addr"), msg.get("value")
+    servo = servo_of(emu, slot) if isinstance(slot, int) else None
+    if servo is None or "id" not in servo:
+        return False, "no servo %r on this bus" % (slot,)
+    item = ax12_table.BY_ADDR.get(addr) if isinstance(addr, int) else None
+    if item is None:
+        return False, "no control-table item at address %r" % (addr,)
+    if isinstance(value, str) and value.strip().lstrip("-").isdigit():
+        value = int(value.strip())
+    if not isinstance(value, int) or isinstance(value, bool):
+        return False, "%s: the value must be a whole number" % item.title
+    if not 0 <= value < 256 ** item.size:
+        return False, "%s: a %d-byte item holds 0..%d" % (item.title, item.size, 256 ** item.size - 1)
+    params = [addr] + [(value >> (8 * i)) & 0xFF for i in range(item.size)]
+    packet = ax12_packets.instruction_packet(servo["id"], ax12_table.INST_WRITE, params)
+    reply = await emu.request({"op": "send", "bytes": packet.hex(" ").upper()})
+    if not reply.get("ok"):
+        return False, reply.get("error", "refused")
+    answer = ax12_packets.parse(bytes.fromhex(reply["reply"])) if reply["reply"] else None
+    sent = " ".join("%02X" % b for b in packet)
+    if answer is None:
+        return True, "sent %s; no status packet came back (Status Return Level, or no servo with ID %d)" % (
+            sent, servo["id"])
+    events = answer.code & ax12_table.ERR_EVENTS
+    if events:
+        return False, "%s = %d refused by the servo: %s (nothing changed); sent %s, answer %s" % (
+            item.title, value, ", ".join(error_names(events)), sent, reply["reply"])
+    note = " (conditions held: %s)" % ", ".join(error_names(answer.code)) if answer.code else ""
+    return True, "%s = %d written%s; sent %s, answer %s" % (item.title, value, note, sent, reply["reply"])
+
+
+async def page_world(emu, msg):
+    slot, changes = msg.get("slot"), msg.get("set")
+    if not isinstance(slot, int) or servo_of(emu, slot) is None:
+        return False, "no servo %r on this bus" % (slot,)
+    if not isinstance(changes, dict) or not changes:
+        return False, "nothing to change"
+    reply = await emu.request({"op": "world", "id": slot, "set": changes})
+    if not reply.get("ok"):
+        return False, reply.get("error", "refused")
+    return True, "servo %d's world changed: %s" % (slot, ", ".join("%s %s" % kv for kv in changes.items()))
+
+
+async def send_queued(ws, queue):
+    while True:
+        text = await queue.get()
+        await ws.send_str(text)
+
+
+async def answer(emu, msg):
+    kind = msg.get("type") if isinstance(msg, dict) else None
+    try:
+        if kind == "write":
+            return await page_write(emu, msg)
+        if kind == "world":
+            return await page_world(emu, msg)
+        return False, "unknown request (write or world)"
+    except (asyncio.TimeoutError, ConnectionError) as e:
+        return False, "the emulator did not answer: %s" % (e or "timeout")
+
+
+async def websocket(request):
+    emu = request.app["emu"]
+    ws = web.WebSocketResponse(heartbeat=10.0)
+    await ws.prepare(request)
+    queue = asyncio.Queue(PAGE_QUEUE)
+    emu.pages[ws] = queue
+    queue.put_nowait(json.dumps({"event": "hello", "packets": emu.packets}))
+    sender = asyncio.ensure_future(send_queued(ws, queue))
+    try:
+        async for frame in ws:
+            if frame.type != WSMsgType.TEXT:
+                continue
+            try:
+                msg = json.loads(frame.data)
+            except ValueError:
+                msg = None
+            ok, text = await answer(emu, msg)
+            result = {"event": "result", "req": msg.get("req") if isinstance(msg, dict) else None, "ok": ok,
+                      "message": text}
+            try:
+                queue.put_nowait(json.dumps(result))
+            except asyncio.QueueFull:
+                break
+    finally:
+        emu.pages.pop(ws, None)
+        sender.cancel()
+    return ws
+
+
+async def items(request):
+    import ax12_table
+    return web.json_response([item._asdict() for item in ax12_table.ITEMS])
+
+
+async def index(request):
+    return web.FileResponse(os.path.join(WEB, "index.html"))
+
+
+def parse_listen(text):
+    host, _, port = text.rpartition(":")
+    if not port.isdigit() or not 0 < int(port) < 65536:
+        raise argparse.ArgumentTypeError("[HOST:]PORT, e.g. 8080 or 127.0.0.1:8080")
+    return host or "127.0.0.1", int(port)
+
+
+async def serve(args):
+    emu = Emulator(args.control)
+    deadline = time.monotonic() + 10.0
+    while True:
+        try:
+            events_reader = await emu.connect()
+            break
+        except OSError as e:
+            if time.monotonic() > deadline:
+                log("cannot reach the emulator's control socket %s: %s" % (args.control, e))
+                return 1
+            await asyncio.sleep(0.1)
+    app = web.Application()
+    app["emu"] = emu
+    app.router.add_get("/", index)
+    app.router.add_get("/ws", websocket)
+    app.router.add_get("/api/items", items)
+    app.router.add_static("/static/", WEB)
+    app.router.add_static("/uplot/", UPLOT)
+    runner = web.AppRunner(app, access_log=None)
+    await runner.setup()
+    host, port = args.listen
+    try:
+        await web.TCPSite(runner, host, port).start()
+    except OSError as e:
+        log("cannot listen on %s:%d: %s" % (host, port, e.strerror or e))
+        return 1
+    print("listening http://%s:%d/" % (host if ":" not in host else "[%s]" % host, port), flush=True)
+    await emu.pump_events(events_reader)  # until the emulator closes the socket
+    for ws in list(emu.pages):
+        await ws.close()
+    await runner.cleanup()
+    return 0
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--control", required=True, help="the emulator's control socket")
+    parser.add_argument("--listen", type=parse_listen, default=("127.0.0.1", 8080), help="[HOST:]PORT")
+    parser.add_argument("--build", default=os.path.join(REPO, "build"), help="the build folder (ax12_table.py)")
+    args = parser.parse_args()
+    import ax12_build
+    ax12_build.ensure(args.build)
+    if not os.path.exists(os.path.join(UPLOT, "uPlot.iife.min.js")):
+        log("%s is missing: run scripts/setup (it installs uPlot with npm)" % UPLOT)
+        return 1
+    try:
+        return asyncio.run(serve(args))
+    except KeyboardInterrupt:
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,337 @@
+// SPDX-License-Identifier: GPL-3.0-or-later
+// The live dashboard's page: telemetry from the WebSocket into the servo list, uPlot charts of
+// the selected servo (the last HISTORY_S seconds), its control table (editable: each edit is a
+// WRITE the emulator puts on the bus), its world, and the bus monitor.
+"use strict";
+
+const HISTORY_S = 15;
+const MONITOR_ROWS = 2000;
+const state = {
+  ws: null, items: [], servos: [], selected: null, history: new Map(), charts: [], profile: "ax12",
+  packets: [], nextReq: 1, tableBuiltFor: null,
+};
+
+const $ = (id) => document.getElementById(id);
+const signed10 = (v) => (v & 0x3ff) * (v & 0x400 ? -1 : 1); // speed and load: bit 10 is CW
+const ERROR_NAMES = [[0x01, "Voltage"], [0x02, "Angle Limit"], [0x04, "Overheating"], [0x08, "Range"],
+  [0x10, "Checksum"], [0x20, "Overload"], [0x40, "Instruction"]];
+const errorNames = (bits) => ERROR_NAMES.filter(([bit]) => bits & bit).map(([, name]) => name);
+
+function say(text, ok) {
+  const m = $("message");
+  m.textContent = text;
+  m.className = ok ? "good" : "bad";
+}
+
+// ---- servos and history -------------------------------------------------------------------
+
+function record(time_s, s) {
+  let h = state.history.get(s.slot);
+  if (!h) {
+    h = { t: [], goal: [], present: [], speed: [], load: [], duty: [], current: [], winding: [], kase: [],
+      supply: [] };
+    state.history.set(s.slot, h);
+  }
+  h.t.push(time_s);
+  h.goal.push(s.goal_position ?? null);
+  h.present.push(s.present_position ?? null);
+  h.speed.push(s.present_speed === undefined ? null : signed10(s.present_speed));
+  h.load.push(s.present_load === undefined ? null : signed10(s.present_load));
+  h.duty.push(s.duty);
+  h.current.push(s.motor_current_a ?? null);
+  h.winding.push(s.winding_c ?? null);
+  h.kase.push(s.case_c ?? null);
+  h.supply.push(s.supply_v ?? null);
+  while (h.t.length && h.t[0] < time_s - HISTORY_S) {
+    for (const k of Object.keys(h)) h[k].shift();
+  }
+}
+
+function cell(text, cls) {
+  const td = document.createElement("td");
+  td.textContent = text;
+  if (cls) td.className = cls;
+  return td;
+}
+
+function alarmsText(s) {
+  const names = errorNames(s.conditions ?? 0);
+  return names.length ? names.join(", ") : "–";
+}
+
+// Rows are made once per servo and their cells updated in place (a click is never lost to a
+// row rebuilt under the pointer).
+function servoRow(slot) {
+  let tr = document.getElementById("servo-row-" + slot);
+  if (!tr) {
+    tr = document.createElement("tr");
+    tr.id = "servo-row-" + slot;
+    for (let i = 0; i < 15; i++) tr.append(cell(""));
+    tr.cells[14].id = "alarms-" + slot;
+    tr.addEventListener("click", () => select(slot));
+    $("servos").tBodies[0].append(tr);
+  }
+  return tr;
+}
+
+function renderServos() {
+  const fmt = (v, d) => (v === undefined || v === null ? "–" : Number(v).toFixed(d));
+  for (const s of state.servos) {
+    const tr = servoRow(s.slot);
+    tr.className = s.slot === state.selected ? "selected" : "";
+    const values = [s.slot, s.id ?? "–", s.goal_position ?? "–", s.present_position ?? "–",
+      s.present_speed === undefined ? "–" : signed10(s.present_speed),
+      s.present_load === undefined ? "–" : signed10(s.present_load), fmt(s.duty, 2), fmt(s.motor_current_a, 2),
+      fmt(s.winding_c, 1), fmt(s.case_c, 1), fmt(s.supply_v, 2), s.led ? "on" : "off", s.torque_enable ? "on" : "off",
+      s.moving ?? "–", alarmsText(s)];
+    values.forEach((v, i) => { if (tr.cells[i].textContent !== String(v)) tr.cells[i].textContent = v; });
+    tr.cells[14].className = s.conditions ? "alarm text" : "text";
+  }
+}
+
+// ---- charts -------------------------------------------------------------------------------
+
+const CHARTS = [
+  { title: "Position (counts)", series: [["Goal", "goal", "#888"], ["Present", "present", "#06c"]] },
+  { title: "Speed and load (signed, CCW +)", series: [["Present Speed", "speed", "#06c"], ["Present Load", "load", "#c60"]] },
+  { title: "H-bridge", series: [["duty", "duty", "#06c"], ["motor current A", "current", "#c00"]] },
+  { title: "Heat (°C)", series: [["winding", "winding", "#c00"], ["case", "kase", "#c80"]] },
+  { title: "Supply at the connector (V)", series: [["supply", "supply", "#070"]] },
+];
+
+function buildCharts() {
+  for (const c of state.charts) c.plot.destroy();
+  state.charts = [];
+  $("charts").replaceChildren();
+  for (const def of CHARTS) {
+    const holder = document.createElement("div");
+    $("charts").append(holder);
+    const opts = {
+      title: def.title, width: 430, height: 190,
+      scales: { x: { time: false } },
+      axes: [{ label: "s (simulated)" }, {}],
+      series: [{ label: "t" }].concat(def.series.map(([label, , stroke]) => ({ label, stroke, width: 1.5 }))),
+    };
+    const plot = new uPlot(opts, [[], ...def.series.map(() => [])], holder);
+    state.charts.push({ def, plot });
+  }
+}
+
+function drawCharts() {
+  const h = state.history.get(state.selected);
+  if (!h) return;
+  for (const { def, plot } of state.charts) {
+    plot.setData([h.t, ...def.series.map(([, key]) => h[key])]);
+  }
+}
+
+// ---- control table ------------------------------------------------------------------------
+
+function access(item) {
+  return state.profile === "ax12a" ? item.access_ax12a : item.access_ax12;
+}
+
+function itemValue(table, item) {
+  return item.size === 2 ? table[item.addr] | (table[item.addr + 1] << 8) : table[item.addr];
+}
+
+function buildTable() {
+  const body = $("control-table").tBodies[0];
+  body.replaceChildren();
+  for (const item of state.items) {
+    const tr = document.createElement("tr");
+    const value = cell("–");
+    value.id = "value-" + item.addr;
+    const range = access(item) === "RW" ? item.min + ".." + item.max : "";
+    tr.append(cell(item.addr), cell(item.title, "text"), value, cell(access(item)), cell(range));
+    const td = document.createElement("td");
+    if (access(item) === "RW") {
+      const input = document.createElement("input");
+      input.id = "item-" + item.addr;
+      input.type = "text";
+      const button = document.createElement("button");
+      button.id = "write-" + item.addr;
+      button.type = "button";
+      button.textContent = "Write";
+      button.addEventListener("click", () => writeItem(item, input.value));
+      input.addEventListener("keydown", (e) => { if (e.key === "Enter") writeItem(item, input.value); });
+      td.append(input, button);
+    }
+    tr.append(td);
+    body.append(tr);
+  }
+  state.tableBuiltFor = state.selected;
+}
+
+function updateTable(s) {
+  if (!s || !s.table) return;
+  for (const item of state.items) {
+    const td = $("value-" + item.addr);
+    if (td) td.textContent = itemValue(s.table, item);
+  }
+}
+
+function request(message) {
+  if (!state.ws || state.ws.readyState !== WebSocket.OPEN) {
+    say("not connected to the emulator", false);
+    return;
+  }
+  message.req = state.nextReq++;
+  state.ws.send(JSON.stringify(message));
+}
+
+function writeItem(item, text) {
+  const trimmed = String(text).trim();
+  if (!/^\d+$/.test(trimmed)) {
+    say(item.title + ": the value must be a whole number", false);
+    return;
+  }
+  request({ type: "write", slot: state.selected, addr: item.addr, value: Number(trimmed) });
+}
+
+// ---- world --------------------------------------------------------------------------------
+
+function showLoadFields() {
+  const kind = $("world-load-kind").value;
+  for (const label of document.querySelectorAll("#world-form .load")) {
+    label.style.display = label.classList.contains(kind) ? "block" : "none";
+  }
+}
+
+function fillWorld(s) {
+  const w = s.world;
+  $("world-supply").value = w.supply;
+  $("world-ambient").value = w.ambient;
+  $("world-load-kind").value = w.load;
+  if (w.load === "torque") $("world-load-torque").value = w.load_torque_nm;
+  if (w.load === "spring") { $("world-spring-k").value = w.spring_nm_rad; $("world-spring-rest").value = w.rest_deg; }
+  if (w.load === "arm") {
+    $("world-arm-kg").value = w.mass_kg; $("world-arm-m").value = w.arm_m; $("world-arm-deg").value = w.horizontal_deg;
+  }
+  showLoadFields();
+}
+
+function describeWorld(w) {
+  const loads = {
+    none: "no load", torque: `constant torque ${w.load_torque_nm} N m`,
+    spring: `spring ${w.spring_nm_rad} N m/rad toward ${Number(w.rest_deg).toFixed(0)}°`,
+    arm: `${w.mass_kg} kg on ${w.arm_m} m`,
+  };
+  return `supply ${w.supply} V, ambient ${w.ambient} °C, ${loads[w.load]}`;
+}
+
+function applyWorld(event) {
+  event.preventDefault();
+  const set = { supply: $("world-supply").value, ambient: $("world-ambient").value };
+  const kind = $("world-load-kind").value;
+  if (kind === "none") set["load-none"] = true;
+  if (kind === "torque") set["load-torque"] = $("world-load-torque").value;
+  if (kind === "spring") set["load-spring"] = $("world-spring-k").value + "," + $("world-spring-rest").value;
+  if (kind === "arm") {
+    set["load-arm"] = $("world-arm-kg").value + "," + $("world-arm-m").value + "," + $("world-arm-deg").value;
+  }
+  request({ type: "world", slot: state.selected, set });
+}
+
+// ---- bus monitor --------------------------------------------------------------------------
+
+function packetMatches(p) {
+  const filter = $("monitor-filter").value.trim();
+  if (!filter) return true;
+  return filter.split(/[ ,]+/).some((id) => Number(id) === p.id);
+}
+
+function packetRow(p) {
+  const tr = document.createElement("tr");
+  const what = p.instruction_name ?? (p.error !== undefined ? (errorNames(p.error).join(", ") || "status, no error") : "–");
+  tr.append(cell(Number(p.time_us).toFixed(1)), cell(p.sender, "text"), cell(p.id ?? "–"), cell(what, "text"),
+    cell(p.params ?? "", "text"), cell(p.checksum_ok === false ? "bad" : p.checksum_ok ? "good" : "–",
+      p.checksum_ok === false ? "bad" : ""));
+  return tr;
+}
+
+function addPackets(list) {
+  for (const p of list) state.packets.push(p);
+  if (state.packets.length > MONITOR_ROWS * 5) state.packets.splice(0, state.packets.length - MONITOR_ROWS * 5);
+  if (!$("monitor-pause").checked) renderMonitor();
+}
+
+function renderMonitor() {
+  const shown = state.packets.filter(packetMatches).slice(-MONITOR_ROWS);
+  const body = $("monitor").tBodies[0];
+  body.replaceChildren(...shown.map(packetRow));
+  $("monitor-count").textContent = `${shown.length} shown, ${state.packets.length} kept`;
+  const scroll = $("monitor-scroll");
+  scroll.scrollTop = scroll.scrollHeight;
+}
+
+function exportCsv() {
+  const rows = [["time_us", "sender", "id", "instruction_or_error", "params", "checksum_ok"]];
+  for (const p of state.packets.filter(packetMatches)) {
+    rows.push([p.time_us, p.sender, p.id ?? "", p.instruction_name ?? (p.error ?? ""), p.params ?? "",
+      p.checksum_ok]);
+  }
+  const text = rows.map((r) => r.map((v) => `"${String(v).replaceAll('"', '""')}"`).join(",")).join("\n") + "\n";
+  const link = document.createElement("a");
+  link.href = URL.createObjectURL(new Blob([text], { type: "text/csv" }));
+  link.download = "ax12-bus.csv";
+  link.click();
+}
+
+// ---- wiring -------------------------------------------------------------------------------
+
+function select(slot) {
+  state.selected = slot;
+  const s = state.servos.find((x) => x.slot === slot);
+  $("selected-name").textContent = s ? `${slot} (ID ${s.id ?? "?"})` : "–";
+  buildTable();
+  if (s) { updateTable(s); fillWorld(s); }
+  renderServos();
+  drawCharts();
+}
+
+function onTelemetry(event) {
+  state.profile = event.profile;
+  $("profile").textContent = `${event.servos.length} servo(s), profile ${event.profile}, ${event.mcu}`;
+  $("clock").textContent = `t = ${(event.time_us / 1e6).toFixed(2)} s`;
+  state.servos = event.servos;
+  for (const s of event.servos) record(event.time_us / 1e6, s);
+  if (state.selected === null && event.servos.length) select(event.servos[0].slot);
+  renderServos();
+  const s = event.servos.find((x) => x.slot === state.selected);
+  updateTable(s);
+  if (s) $("world-now").textContent = describeWorld(s.world);
+  drawCharts();
+}
+
+function connect() {
+  const ws = new WebSocket(`ws://${location.host}/ws`);
+  state.ws = ws;
+  ws.onopen = () => { $("connection").textContent = "live"; $("connection").className = "good"; };
+  ws.onclose = () => {
+    $("connection").textContent = "disconnected (is the emulator still running?)";
+    $("connection").className = "bad";
+    setTimeout(connect, 1000);
+  };
+  ws.onmessage = (m) => {
+    const event = JSON.parse(m.data);
+    if (event.event === "telemetry") onTelemetry(event);
+    else if (event.event === "packet") addPackets([event]);
+    else if (event.event === "hello") addPackets(event.packets);
+    else if (event.event === "result") say(event.message, event.ok);
+  };
+}
+
+async function start() {
+  state.items = await (await fetch("/api/items")).json();
+  buildCharts();
+  $("world-load-kind").addEventListener("change", showLoadFields);
+  $("world-form").addEventListener("submit", applyWorld);
+  $("monitor-pause").addEventListener("change", () => { if (!$("monitor-pause").checked) renderMonitor(); });
+  $("monitor-filter").addEventListener("input", renderMonitor);
+  $("monitor-export").addEventListener("click", exportCsv);
+  $("monitor-clear").addEventListener("click", () => { state.packets = []; renderMonitor(); });
+  connect();
+}
+
+start();
