@@ -45,6 +45,9 @@ static const char usage_text[] =
     "                      reaches the wire at the next USB frame; the bus sees the baud\n"
     "                      the chip makes of the client's (docs/emulator.md)\n"
     "  --stats             print bus, adapter and timing statistics to stderr on exit\n"
+    "  --log-bus FILE      every packet on the bus, one CSV row each (time, sender, ID,\n"
+    "                      instruction or error bits, parameters, checksum, collision, raw\n"
+    "                      bytes); replay it with `scripts/ax12 replay` (docs/emulator.md)\n"
     "  --bit-error-rate RATE\n"
     "                      noise: every bit on the wire (start, 8 data, stop) flips with\n"
     "                      probability RATE, 0 <= RATE < 1 (default 0: none), both ways;\n"
@@ -109,7 +112,7 @@ static bool parse_bit_error_rate(const char *text, double *rate) {
 
 int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
   enum { OPT_IDS = 256, OPT_LINK, OPT_STATE_DIR, OPT_PROFILE, OPT_MCU, OPT_BAUD, OPT_REALTIME, OPT_FAST, OPT_ELF,
-         OPT_FIRMWARE_DIR, OPT_STATS, OPT_BIT_ERROR_RATE, OPT_SEED, OPT_ADAPTER };
+         OPT_FIRMWARE_DIR, OPT_STATS, OPT_BIT_ERROR_RATE, OPT_SEED, OPT_ADAPTER, OPT_LOG_BUS };
   static const struct option long_options[] = {
       {"ids", required_argument, NULL, OPT_IDS},
       {"link", required_argument, NULL, OPT_LINK},
@@ -125,6 +128,7 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       {"bit-error-rate", required_argument, NULL, OPT_BIT_ERROR_RATE},
       {"seed", required_argument, NULL, OPT_SEED},
       {"adapter", required_argument, NULL, OPT_ADAPTER},
+      {"log-bus", required_argument, NULL, OPT_LOG_BUS},
       PLANT_LONG_OPTIONS,
       {"help", no_argument, NULL, 'h'},
       {NULL, 0, NULL, 0},
@@ -205,6 +209,12 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       if (!usb_adapter_parse(optarg, &o->adapter, err, sizeof(err))) {
         return fail_usage("--adapter: %s", err);
       }
+      break;
+    case OPT_LOG_BUS:
+      if (!optarg[0]) {
+        return fail_usage("empty --log-bus");
+      }
+      o->log_bus = optarg;
       break;
     case 'h':
       emu_print_usage(stdout);
