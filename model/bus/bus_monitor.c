@@ -415,6 +415,13 @@ static void put_hex(line_t *l, const uint8_t *bytes, size_t count) {
   l->out[l->used] = '\0';
 }
 
+/* Cycles as microseconds with four decimals, exactly (a cycle is 0.0625 us), and a comma. */
+static void put_us(line_t *l, sim_cycles_t cycles) {
+  _Static_assert(SIM_CYCLES_PER_US == 16u, "four decimals hold a cycle exactly");
+  put(l, "%llu.%04u,", (unsigned long long)(cycles / SIM_CYCLES_PER_US),
+      (unsigned)(cycles % SIM_CYCLES_PER_US) * 625u);
+}
+
 /* A name as a CSV field: no quoting needed once separators are replaced. */
 static void put_name(line_t *l, const char *name) {
   for (const char *c = name; *c && l->used + 1u < l->len; c++) {
@@ -429,7 +436,8 @@ size_t bus_packet_csv(const bus_packet_t *p, char *out, size_t out_len) {
     return 0;
   }
   out[0] = '\0';
-  put(&l, "%.4f,%.4f,", sim_cycles_to_us(p->start), sim_cycles_to_us(p->end));
+  put_us(&l, p->start);
+  put_us(&l, p->end);
   put_name(&l, p->sender_name ? p->sender_name : "");
   put(&l, ",%s,", bus_packet_kind_name(p->kind));
   const bool framed = p->kind == BUS_PACKET_INSTRUCTION || p->kind == BUS_PACKET_STATUS;
