@@ -7,11 +7,15 @@ Temperature is 70 where the AX-12's is 85 (docs/policy.md: the READ's answer dif
 1); a malformed log (exit 2, the line named)."""
 import csv
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import dynamixel_sdk as sdk
+import pytest
 import dynamixel_sdk.port_handler as sdk_port
 
 import ax12_table as T
@@ -24,6 +28,16 @@ COLUMNS = ["time_us", "end_us", "sender", "kind", "id", "code", "code_name", "pa
            "line", "raw"]
 # A READ of Present Position whose checksum byte is wrong (right: 0xBE).
 BAD_CHECKSUM_READ = bytes([0xFF, 0xFF, 0x01, 0x04, 0x02, T.PRESENT_POSITION, 0x02, 0x00])
+
+
+@pytest.fixture
+def tmp_path():
+    """A folder of this test's own: pytest's numbered temporary folders are shared by every
+    pytest run of the user, and a run started elsewhere may delete ours while an emulator keeps
+    its state and its log in it."""
+    folder = tempfile.mkdtemp(prefix="ax12-bus-log-test-")
+    yield Path(folder)
+    shutil.rmtree(folder, ignore_errors=True)
 
 
 def rows_of(path):
