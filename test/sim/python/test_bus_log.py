@@ -199,3 +199,47 @@ def test_log_bus_refuses_a_file_it_cannot_create(tmp_path):
     assert "--log-bus %s" % (tmp_path / "no" / "such" / "x.csv") in out.stderr
     out = subprocess.run(cmd[:-2] + ["--log-bus", ""], capture_output=True, text=True, timeout=20)
     assert out.returncode == 2 and "empty --log-bus" in out.stderr
+
+
+def load_replay():
+    sys.path.insert(0, os.path.join(REPO, "scripts"))
+    import ax12_replay
+    return ax12_replay
+
+
+def packet(ident, code, params):
+    body = bytes([ident, len(params) + 2, code]) + bytes(params)
+    return b"\xff\xff" + body + bytes([~sum(body) & 0xFF])
+
+
+def test_replay_cuts_answers_as_the_monitor_does():
+    R = load_replay()
+    status = packet(1, 0, [])
+    assert R.split(b"\x00" + status + b"\x12\xff") == [b"\x00", status, b"\x12\xff"]
+    assert R.split(b"\xff" + status) == [b"\xff" + status]  # an extra header byte
+    assert R.split(b"\xff\xff\x01\x01" + status) == [b"\xff\xff\x01\x01", status]  # LENGTH 1: no packet
+    assert R.split(status[:-1]) == [status[:-1]]  # cut short: garbage
+
+
+def test_replay_ignores_only_the_time_varying_bytes_of_read_answers():
+    R = load_replay()
+    varying = R.varying_addresses(T)
+    assert sorted(varying) == list(range(36, 44)) + [46]
+
+    def same(request, expected, got, strict=False):
+        return R.same(request, expected, got, strict, T, varying)
+
+    read_position = packet(1, T.INST_READ, [T.PRESENT_POSITION, 2])
+    assert same(read_position, packet(1, 0, [0x00, 0x02]), packet(1, 0, [0x10, 0x02]))
+    assert not same(read_position, packet(1, 0, [0x00, 0x02]), packet(1, 0, [0x10, 0x02]), strict=True)
+    assert not same(read_position, packet(1, 0, [0x00, 0x02]), packet(1, T.ERR_OVERLOAD, [0x10, 0x02]))
+    assert not same(read_position, packet(1, 0, [0x00, 0x02]), packet(2, 0, [0x10, 0x02]))
+    assert not same(read_position, packet(1, 0, [0x00, 0x02]), packet(1, 0, [0x10]))
+    wrong = packet(1, 0, [0x10, 0x02])[:-1] + b"\x00"
+    assert not same(read_position, packet(1, 0, [0x00, 0x02]), wrong)  # a wrong checksum stays wrong
+    read_44_to_46 = packet(1, T.INST_READ, [T.REGISTERED_INSTRUCTION, 3])
+    assert same(read_44_to_46, packet(1, 0, [0, 0, 0]), packet(1, 0, [0, 0, 1]))  # Moving
+    assert not same(read_44_to_46, packet(1, 0, [0, 0, 0]), packet(1, 0, [1, 0, 0]))  # Registered Instruction
+    read_limit = packet(1, T.INST_READ, [T.HIGHEST_LIMIT_TEMP, 1])
+    assert not same(read_limit, packet(1, 0, [85]), packet(1, 0, [70]))
+    assert not same(packet(1, T.INST_PING, []), b"\x12", b"\x13")
