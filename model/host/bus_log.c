@@ -2,6 +2,7 @@
 #include "bus_log.h"
 
 #include <errno.h>
+#include <math.h>
 #include <string.h>
 
 static void fail(bus_log_t *log, int why) {
@@ -14,6 +15,7 @@ static void fail(bus_log_t *log, int why) {
 int bus_log_open(bus_log_t *log, const char *path, char *err, size_t err_len) {
   memset(log, 0, sizeof(*log));
   snprintf(log->path, sizeof(log->path), "%s", path);
+  log->last_flush_us = -HUGE_VAL; /* the first rows go out at the first tick */
   log->file = fopen(path, "w");
   if (!log->file) {
     snprintf(err, err_len, "--log-bus %s: %s", path, strerror(errno));

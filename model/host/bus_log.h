@@ -2,8 +2,8 @@
 /* `--log-bus FILE.csv`: every record of the bus monitor (model/bus/bus_monitor.h) as one CSV
  * row (bus_packet_csv), after a header row (BUS_PACKET_CSV_HEADER).
  *
- * Rows go through stdio's buffer, flushed to the kernel by bus_log_tick once
- * BUS_LOG_FLUSH_US of wall time has passed since the last flush with rows waiting, so a
+ * Rows go through stdio's buffer, flushed to the kernel by bus_log_tick when rows wait and
+ * BUS_LOG_FLUSH_US of wall time have passed since the last flush (the first rows at once), so a
  * SIGKILL loses at most the rows of that last fraction of a second (the kernel keeps what was
  * written; no fsync, as with the state files). bus_log_close flushes the rest. A write that
  * fails is reported once on stderr; later rows are dropped and bus_log_close returns -1. */

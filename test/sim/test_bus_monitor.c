@@ -180,7 +180,8 @@ static void test_a_bad_checksum_is_a_packet_with_checksum_ok_false(void **state)
   assert_record(&r->log.r[0], BUS_PACKET_INSTRUCTION, "client", "FF FF 01 04 02 2B 01 00");
   assert_false(r->log.r[0].p.checksum_ok);
   assert_int_equal(r->log.r[0].p.checksum, 0x00);
-  assert_string_equal(r->log.r[0].csv, "0.0000,80.0000,client,instruction,1,0x02,READ,2B 01,0,0,,FF FF 01 04 02 2B 01 00\n");
+  assert_string_equal(r->log.r[0].csv,
+                      "0.0000,80.0000,client,instruction,1,0x02,READ,2B 01,0,0,,FF FF 01 04 02 2B 01 00\n");
   assert_true(r->log.r[1].p.checksum_ok);
   rig_free(r);
 }
@@ -266,7 +267,8 @@ static void test_a_protocol_2_frame_is_skipped_whole_and_keeps_sync(void **state
   assert_record(&r->log.r[0], BUS_PACKET_PROTOCOL2, "client",
                 "FF FF FD 00 01 0B 00 03 74 00 FF FF 01 02 01 FB 12 34");
   assert_string_equal(r->log.r[0].csv,
-                      "0.0000,180.0000,client,protocol2,,,,,,0,,FF FF FD 00 01 0B 00 03 74 00 FF FF 01 02 01 FB 12 34\n");
+                      "0.0000,180.0000,client,protocol2,,,,,,0,,"
+                      "FF FF FD 00 01 0B 00 03 74 00 FF FF 01 02 01 FB 12 34\n");
   assert_record(&r->log.r[1], BUS_PACKET_INSTRUCTION, "client", "FF FF 01 02 01 FB");
   assert_int_equal(bus_monitor_count(r->mon, BUS_PACKET_INSTRUCTION), 1);
   rig_free(r);
@@ -350,7 +352,8 @@ static void test_noise_and_truncation_are_flagged(void **state) {
   assert_int_equal(r->log.count, 1);
   assert_true(r->log.r[0].p.noise_changed);
   assert_true(r->log.r[0].p.checksum_ok); /* decoded as sent */
-  assert_string_equal(r->log.r[0].csv, "0.0000,60.0000,client,instruction,1,0x01,PING,,1,0,truncated|noise,FF FF 01 02 01 FB\n");
+  assert_string_equal(r->log.r[0].csv,
+                      "0.0000,60.0000,client,instruction,1,0x01,PING,,1,0,truncated|noise,FF FF 01 02 01 FB\n");
   rig_free(r);
 }
 

@@ -130,7 +130,9 @@ static int bus_logging_stop(bus_logging_t *bl, bool stats) {
   bus_monitor_finish(bl->monitor);
   if (stats) {
     const bus_monitor_t *m = bl->monitor;
-    fprintf(stderr, "ax12-emu: bus log %s: %llu rows: %llu instructions, %llu status packets, %llu garbage, %llu protocol 2.0\n",
+    fprintf(stderr,
+            "ax12-emu: bus log %s: %llu rows: %llu instructions, %llu status packets, %llu garbage, %llu protocol "
+            "2.0\n",
             bl->log.path, (unsigned long long)bl->log.rows,
             (unsigned long long)bus_monitor_count(m, BUS_PACKET_INSTRUCTION),
             (unsigned long long)bus_monitor_count(m, BUS_PACKET_STATUS),
