@@ -270,8 +270,10 @@ static void end_partial(bus_monitor_t *mon, uint8_t sender) {
 
 void bus_monitor_byte(void *ctx, const bus_tap_byte_t *byte) {
   bus_monitor_t *mon = ctx;
-  /* Backwards: end_partial moves the last entry into the slot it frees, one already seen. */
-  for (size_t k = mon->open_count; k-- > 0;) {
+  /* Backwards: end_partial moves the last entry into the slot it frees, one already seen. A
+   * collided byte ends nothing: senders in lockstep (replies to a broadcast PING) start each
+   * byte as the other's previous one ends. */
+  for (size_t k = mon->open_count; k-- > 0 && !(byte->flags & BUS_RX_COLLISION);) {
     const uint8_t other = mon->open[k];
     if (other != byte->sender && mon->senders[other]->last_end <= byte->start) {
       end_partial(mon, other); /* it stopped, this sender took the wire */

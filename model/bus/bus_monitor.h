@@ -18,7 +18,8 @@
  * - A partial packet ends, its bytes scanned again with the rest reported as garbage, when its
  *   sender is silent for longer than the gap (seen at its next byte or at bus_monitor_flush),
  *   when another sender starts a byte after the partial packet's last byte ended (it took the
- *   wire; bytes that overlap, a collision, do not end it), or at bus_monitor_finish.
+ *   wire; a byte that collided with any other, as in replies sent in lockstep, ends nothing),
+ *   or at bus_monitor_finish.
  *
  * Records come in the order they complete (a partial packet ended by another sender's byte is
  * reported before the packet that byte begins). Everything runs on the thread that finalizes

@@ -243,3 +243,27 @@ def test_replay_ignores_only_the_time_varying_bytes_of_read_answers():
     read_limit = packet(1, T.INST_READ, [T.HIGHEST_LIMIT_TEMP, 1])
     assert not same(read_limit, packet(1, 0, [85]), packet(1, 0, [70]))
     assert not same(packet(1, T.INST_PING, []), b"\x12", b"\x13")
+
+
+def test_the_log_shows_colliding_replies_and_keeps_a_cut_packet_at_exit(emulator, tmp_path):
+    import serial
+    log = tmp_path / "bus.csv"
+    emu = emulator("--fast", "--ids", "1,2", "--state-dir", str(tmp_path / "s"), "--log-bus", str(log))
+    port = serial.Serial(emu.device, 1000000, timeout=0.2)
+    try:
+        port.write(packet(T.ID_BROADCAST, T.INST_PING, []))  # both answer at the same Return Delay Time
+        port.read(12)
+        time.sleep(0.2)
+        port.write(b"\xff\xff\x01")  # a packet the client never finishes
+        time.sleep(0.2)
+    finally:
+        port.close()
+    assert emu.stop() == 0  # SIGTERM: everything written, the cut packet too
+    rows = rows_of(log)
+    assert [(r["sender"], r["kind"], r["id"], r["code_name"]) for r in rows[:1]] == [
+        ("client", "instruction", "254", "PING")]
+    replies = sorted(rows[1:3], key=lambda r: r["sender"])
+    assert [(r["sender"], r["kind"], r["collision"]) for r in replies] == [
+        ("servo-1", "status", "1"), ("servo-2", "status", "1")]
+    assert [r["raw"] for r in replies] == ["FF FF 01 02 00 FC", "FF FF 02 02 00 FB"]  # as each servo sent it
+    assert [(r["sender"], r["kind"], r["raw"]) for r in rows[3:]] == [("client", "garbage", "FF FF 01")]
