@@ -43,8 +43,9 @@ CLIENT = "client"
 TAIL_S = 0.05
 
 
-class BadFile(Exception):
-    """A log that cannot be replayed: a clear message, no traceback."""
+class Problem(Exception):
+    """A log that cannot be replayed or a port that cannot be used: a clear message, no
+    traceback, exit status 2."""
 
 
 def arguments(argv):
@@ -78,28 +79,28 @@ def parse_hex(text, what):
     try:
         data = bytes(int(h, 16) for h in text.split())
     except ValueError:
-        raise BadFile("%s is not hex bytes: %r" % (what, text))
+        raise Problem("%s is not hex bytes: %r" % (what, text))
     if any(len(h) != 2 for h in text.split()):
-        raise BadFile("%s is not hex bytes (two digits each): %r" % (what, text))
+        raise Problem("%s is not hex bytes (two digits each): %r" % (what, text))
     return data
 
 
 def read_log(path):
-    """The rows of a bus log, in order. BadFile names the line and the problem."""
+    """The rows of a bus log, in order. Problem names the line and the problem."""
     try:
         f = open(path, newline="")
     except OSError as e:
-        raise BadFile("%s: %s" % (path, e.strerror or e))
+        raise Problem("%s: %s" % (path, e.strerror or e))
     rows = []
     with f:
         reader = csv.reader(f)
         try:
             header = next(reader, None)
             if header is None:
-                raise BadFile("%s: empty file (no header row)" % path)
+                raise Problem("%s: empty file (no header row)" % path)
             missing = [c for c in NEEDED_COLUMNS if c not in header]
             if missing:
-                raise BadFile("%s:1: not a bus log: no column %s (header: %s)"
+                raise Problem("%s:1: not a bus log: no column %s (header: %s)"
                               % (path, ", ".join(missing), ",".join(header)))
             at = {c: header.index(c) for c in NEEDED_COLUMNS}
             for fields in reader:
@@ -107,33 +108,33 @@ def read_log(path):
                 if not fields:
                     continue
                 if len(fields) != len(header):
-                    raise BadFile("%s:%d: %d fields, the header has %d" % (path, line, len(fields), len(header)))
+                    raise Problem("%s:%d: %d fields, the header has %d" % (path, line, len(fields), len(header)))
                 try:
                     time_us = float(fields[at["time_us"]])
                 except ValueError:
-                    raise BadFile("%s:%d: time_us is not a number: %r" % (path, line, fields[at["time_us"]]))
+                    raise Problem("%s:%d: time_us is not a number: %r" % (path, line, fields[at["time_us"]]))
                 kind = fields[at["kind"]]
                 if kind not in KINDS:
-                    raise BadFile("%s:%d: unknown kind %r (one of %s)" % (path, line, kind, ", ".join(KINDS)))
+                    raise Problem("%s:%d: unknown kind %r (one of %s)" % (path, line, kind, ", ".join(KINDS)))
                 sender = fields[at["sender"]]
                 if not sender:
-                    raise BadFile("%s:%d: no sender" % (path, line))
+                    raise Problem("%s:%d: no sender" % (path, line))
                 try:
                     raw = parse_hex(fields[at["raw"]], "raw")
-                except BadFile as e:
-                    raise BadFile("%s:%d: %s" % (path, line, e))
+                except Problem as e:
+                    raise Problem("%s:%d: %s" % (path, line, e))
                 if not raw:
-                    raise BadFile("%s:%d: no raw bytes" % (path, line))
+                    raise Problem("%s:%d: no raw bytes" % (path, line))
                 if rows and time_us < rows[-1].time_us and sender == CLIENT and rows[-1].sender == CLIENT:
-                    raise BadFile("%s:%d: time_us goes back (%.3f after %.3f)"
+                    raise Problem("%s:%d: time_us goes back (%.3f after %.3f)"
                                   % (path, line, time_us, rows[-1].time_us))
                 rows.append(Row(line, time_us, sender, kind, raw))
         except csv.Error as e:
-            raise BadFile("%s:%d: %s" % (path, reader.line_num, e))
+            raise Problem("%s:%d: %s" % (path, reader.line_num, e))
         except UnicodeDecodeError:
-            raise BadFile("%s: not a text file" % path)
+            raise Problem("%s: not a text file" % path)
     if not any(r.sender == CLIENT for r in rows):
-        raise BadFile("%s: no row from the client: nothing to replay" % path)
+        raise Problem("%s: no row from the client: nothing to replay" % path)
     return rows
 
 
@@ -254,11 +255,11 @@ class Port:
     def __init__(self, path, bps):
         import serial  # pyserial, from the project's venv (scripts/setup)
         if not os.path.exists(path):
-            raise BadFile("no such port: %s" % path)
+            raise Problem("no such port: %s" % path)
         try:
             self.s = serial.Serial(path, bps, timeout=0, write_timeout=2)
         except (serial.SerialException, OSError, ValueError) as e:
-            raise BadFile("cannot open %s: %s" % (path, e))
+            raise Problem("cannot open %s: %s" % (path, e))
         self.fd = self.s.fileno()
         self.bps = bps
 
@@ -282,10 +283,11 @@ class Port:
 
 # --- the replay --------------------------------------------------------------------------------
 
-def describe(packet, T):
+def describe(row, T):
+    packet = row.raw
     f = framed(packet)
-    if not f:
-        return "garbage"
+    if row.kind != "instruction" or not f:
+        return row.kind
     h, ident, _ = f
     names = {T.INST_PING: "PING", T.INST_READ: "READ", T.INST_WRITE: "WRITE", T.INST_REG_WRITE: "REG_WRITE",
              T.INST_ACTION: "ACTION", T.INST_RESET: "RESET", T.INST_SYNC_WRITE: "SYNC_WRITE"}
@@ -307,8 +309,7 @@ def replay(args, T):
     differences = 0
     differing = set()  # exchanges with a difference
     t0_rec = exs[0].request.time_us
-    stray = bytearray()
-    port.read_until(time.monotonic() + 0.01, stray)  # whatever the device sent before: not ours
+    port.read_until(time.monotonic() + 0.01, bytearray())  # what the device sent before: not an answer
     t0 = time.monotonic()
 
     def report(k, sent_at, lines):
@@ -317,7 +318,7 @@ def replay(args, T):
         if k not in differing:
             print("packet %d (line %d) sent at +%.3f ms (recorded +%.3f ms): %s [%s]"
                   % (k + 1, ex.request.line, (sent_at - t0) * 1e3, (ex.request.time_us - t0_rec) / 1e3,
-                     describe(ex.request.raw, T), hexs(ex.request.raw)))
+                     describe(ex.request, T), hexs(ex.request.raw)))
         differing.add(k)
         differences += len(lines)
         for line in lines:
@@ -388,7 +389,7 @@ def main(argv=None):
     import ax12_table as T  # noqa: E402
     try:
         return replay(args, T)
-    except BadFile as e:
+    except Problem as e:
         print("ax12 replay: %s" % e, file=sys.stderr)
         return EXIT_BAD
     except KeyboardInterrupt:

@@ -114,12 +114,12 @@ def recorded_session(emulator, folder, attempts=4):
     raise AssertionError("the pty held a packet in every one of %d sessions" % attempts)
 
 
-def replay_on_fresh(emulator, folder, log, profile, attempts=3):
+def replay_on_fresh(emulator, folder, log, profile, label, attempts=3):
     """The replay of log against a fresh emulator of profile; run again (a fresh one) when the
     pty held a packet past the replay's timeout: an answer missing, or late (no answer of this
     session is missing against either profile)."""
     for attempt in range(attempts):
-        emu = emulator("--realtime", "--profile", profile, "--state-dir", str(folder / ("%s%d" % (profile, attempt))))
+        emu = emulator("--realtime", "--profile", profile, "--state-dir", str(folder / ("%s-%s%d" % (label, profile, attempt))))
         proc = replay(log, emu.device)
         emu.stop()
         if ": missing:" not in proc.stdout and "late answer" not in proc.stdout:
@@ -162,16 +162,25 @@ def test_a_logged_sdk_session_replays_the_same_and_shows_another_profile(emulato
     assert times == sorted(times)
     assert [r["sender"] for r in rows] == ["client", "servo-1"] * 8
 
-    same = replay_on_fresh(emulator, tmp_path, log, "ax12")
+    same = replay_on_fresh(emulator, tmp_path, log, "ax12", "same")
     assert same.returncode == 0, same.stdout + same.stderr
     assert "result: SAME" in same.stdout
 
-    differ = replay_on_fresh(emulator, tmp_path, log, "ax12a")
+    differ = replay_on_fresh(emulator, tmp_path, log, "ax12a", "other")
     assert differ.returncode == 1, differ.stdout + differ.stderr
     report = differ.stdout
     assert "READ ID 1" in report and "different" in report, report
     assert "expected FF FF 01 03 00 55" in report and "got FF FF 01 03 00 46" in report, report  # 85 vs 70
     assert "result: DIFFERENT: 1 difference in 1 of 8 exchanges" in report, report
+
+    # A log whose first answer was removed: the device's answer is an extra one.
+    lines = log.read_text().splitlines(keepends=True)
+    edited = tmp_path / "edited.csv"
+    edited.write_text(lines[0] + lines[1] + "".join(lines[3:]))
+    extra = replay_on_fresh(emulator, tmp_path, edited, "ax12", "edited")
+    assert extra.returncode == 1, extra.stdout + extra.stderr
+    assert "packet 1 (line 2)" in extra.stdout and "PING ID 1 [FF FF 01 02 01 FB]" in extra.stdout, extra.stdout
+    assert "answer 1: extra: expected nothing, got FF FF 01 02 00 FC" in extra.stdout, extra.stdout
 
 
 def test_a_malformed_log_is_refused_naming_its_line(tmp_path):
