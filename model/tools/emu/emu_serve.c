@@ -8,8 +8,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "bus_log.h"
-#include "bus_monitor.h"
+#include "emu_bus_log.h"
 #include "pacing.h"
 #include "pty_bridge.h"
 #include "servo.h"
@@ -84,69 +83,6 @@ static void print_stats(const world_t *world, const pty_bridge_t *pty, const pac
             (unsigned long long)s->eeprom_writes, (unsigned long long)s->persists,
             (unsigned long long)s->watchdog_resets, s->halted ? ", HALTED" : "");
   }
-}
-
-/* --log-bus: the bus monitor, installed only then (without it the bus has no tap), and its
- * CSV file. */
-typedef struct {
-  bus_monitor_t *monitor;
-  bus_log_t log;
-} bus_logging_t;
-
-static int bus_logging_start(bus_logging_t *bl, const serve_options_t *o, world_t *world, const pty_bridge_t *pty,
-                             char *err, size_t err_len) {
-  memset(bl, 0, sizeof(*bl));
-  if (!o->log_bus) {
-    return 0;
-  }
-  if (bus_log_open(&bl->log, o->log_bus, err, err_len) != 0) {
-    return -1;
-  }
-  bl->monitor = bus_monitor_create(&world->bus, sim_us(BUS_MONITOR_DEFAULT_GAP_US));
-  if (!bl->monitor) {
-    snprintf(err, err_len, "out of memory for the bus monitor");
-    (void)bus_log_close(&bl->log, err, err_len);
-    return -1;
-  }
-  bus_monitor_set_client(bl->monitor, pty->node);
-  (void)bus_monitor_add_listener(bl->monitor, bus_log_packet, &bl->log); /* the first: never full */
-  return 0;
-}
-
-/* Every slice: partial packets past the gap reported, rows flushed now and then. */
-static void bus_logging_tick(bus_logging_t *bl, sim_cycles_t now) {
-  if (bl->monitor) {
-    bus_monitor_flush(bl->monitor, now);
-    bus_log_tick(&bl->log, pacing_wall_us());
-  }
-}
-
-/* Reports what is still partial (as garbage), closes the file. -1 (message on stderr) when
- * rows were lost. */
-static int bus_logging_stop(bus_logging_t *bl, bool stats) {
-  if (!bl->monitor) {
-    return 0;
-  }
-  bus_monitor_finish(bl->monitor);
-  if (stats) {
-    const bus_monitor_t *m = bl->monitor;
-    fprintf(stderr,
-            "ax12-emu: bus log %s: %llu rows: %llu instructions, %llu status packets, %llu garbage, %llu protocol "
-            "2.0\n",
-            bl->log.path, (unsigned long long)bl->log.rows,
-            (unsigned long long)bus_monitor_count(m, BUS_PACKET_INSTRUCTION),
-            (unsigned long long)bus_monitor_count(m, BUS_PACKET_STATUS),
-            (unsigned long long)bus_monitor_count(m, BUS_PACKET_GARBAGE),
-            (unsigned long long)bus_monitor_count(m, BUS_PACKET_PROTOCOL2));
-  }
-  bus_monitor_destroy(bl->monitor);
-  bl->monitor = NULL;
-  char err[4200];
-  if (bus_log_close(&bl->log, err, sizeof(err)) != 0) {
-    fprintf(stderr, "ax12-emu: %s\n", err);
-    return -1;
-  }
-  return 0;
 }
 
 static sim_cycles_t sim_of_wall(void *ctx, double wall_us) { return pacing_sim_at(ctx, wall_us); }
@@ -225,8 +161,8 @@ int emu_serve(const serve_options_t *o) {
     world_destroy(world);
     return 1;
   }
-  bus_logging_t bus_logging;
-  if (bus_logging_start(&bus_logging, o, world, &pty, err, sizeof(err)) != 0) {
+  emu_bus_log_t bus_logging;
+  if (emu_bus_log_start(&bus_logging, o->log_bus, &world->bus, pty.node, err, sizeof(err)) != 0) {
     fprintf(stderr, "ax12-emu: %s\n", err);
     pty_bridge_close(&pty);
     release_locks(locks, lock_count);
@@ -288,7 +224,7 @@ int emu_serve(const serve_options_t *o) {
     }
     world_run_until(world, until);
     (void)pty_bridge_pump(&pty, o->realtime ? sim_of_wall : NULL, &pacing);
-    bus_logging_tick(&bus_logging, world->now);
+    emu_bus_log_tick(&bus_logging, world->now);
     if (!warned_persist) {
       for (size_t i = 0; i < world->servo_count; i++) {
         if (world->servos[i]->persist_errors) {
@@ -324,7 +260,7 @@ int emu_serve(const serve_options_t *o) {
   if (o->stats) {
     print_stats(world, &pty, &pacing);
   }
-  const int log_failed = bus_logging_stop(&bus_logging, o->stats);
+  const int log_failed = emu_bus_log_stop(&bus_logging, o->stats);
   pty_bridge_close(&pty);
   world_destroy(world);
   release_locks(locks, lock_count); /* after the last state file was written */
