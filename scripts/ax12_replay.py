@@ -25,6 +25,7 @@ problem) or an unusable port.
 """
 import argparse
 import csv
+import difflib
 import os
 import select
 import sys
@@ -357,17 +358,29 @@ def replay(args, T):
     return 0
 
 
+def shape(packet):
+    """What two answers must share to be taken for the same answer, one maybe changed: a
+    packet's header, ID, LENGTH and error byte; garbage whole."""
+    f = framed(packet)
+    return packet if not f else packet[:f[0] + 3]
+
+
 def compare(ex, answers, strict, T, varying):
+    """Lines naming each difference between the answers expected and got. The two lists are
+    aligned first (difflib), so an answer in excess or missing among others is reported as
+    such and the others are still compared with their counterparts."""
     lines = []
-    for i in range(max(len(ex.expected), len(answers))):
-        e = ex.expected[i] if i < len(ex.expected) else None
-        g = answers[i] if i < len(answers) else None
-        if e is None:
-            lines.append("answer %d: extra: expected nothing, got %s" % (i + 1, hexs(g)))
-        elif g is None:
-            lines.append("answer %d: missing: expected %s, got nothing" % (i + 1, hexs(e)))
-        elif not same(ex.request.raw, e, g, strict, T, varying):
-            lines.append("answer %d: different: expected %s, got %s" % (i + 1, hexs(e), hexs(g)))
+    sm = difflib.SequenceMatcher(a=[shape(e) for e in ex.expected], b=[shape(g) for g in answers], autojunk=False)
+    for tag, i1, i2, j1, j2 in sm.get_opcodes():
+        pairs = list(zip(range(i1, i2), range(j1, j2)))
+        for i, j in pairs:
+            e, g = ex.expected[i], answers[j]
+            if not same(ex.request.raw, e, g, strict, T, varying):
+                lines.append("answer %d: different: expected %s, got %s" % (j + 1, hexs(e), hexs(g)))
+        for i in range(i1 + len(pairs), i2):
+            lines.append("answer %d: missing: expected %s, got nothing" % (i + 1, hexs(ex.expected[i])))
+        for j in range(j1 + len(pairs), j2):
+            lines.append("answer %d: extra: expected nothing, got %s" % (j + 1, hexs(answers[j])))
     return lines
 
 
