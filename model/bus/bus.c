@@ -13,6 +13,11 @@ bool bus_set_noise(bus_t *bus, double bit_error_rate, uint64_t seed) {
   return bus_noise_init(&bus->noise, bit_error_rate, seed);
 }
 
+void bus_set_tap(bus_t *bus, bus_tap_fn tap, void *ctx) {
+  bus->tap = tap;
+  bus->tap_ctx = ctx;
+}
+
 void bus_free(bus_t *bus) {
   for (size_t i = 0; i < bus->node_count; i++) {
     free(bus->nodes[i].pending);
@@ -258,6 +263,12 @@ static void finalize_one(bus_t *bus, bus_byte_t x) {
     if (group[k].start < frame_start) {
       frame_start = group[k].start;
     }
+  }
+
+  if (bus->tap) {
+    const bus_tap_byte_t seen = {
+        .start = x.start, .end = x.end, .sent = sent, .wire = x.value, .flags = x.flags, .sender = x.sender};
+    bus->tap(bus->tap_ctx, &seen);
   }
 
   bus_node_t *sender = &bus->nodes[x.sender];

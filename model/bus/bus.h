@@ -80,6 +80,23 @@ typedef struct {
   uint8_t sender;
 } bus_byte_t;
 
+/* One byte as the bus finalized it, as a tap sees it (bus_set_tap): what its sender sent,
+ * where it was on the wire and what happened to it there. Receivers may still decode another
+ * value (a collision, a baud mismatch, a cut byte: bus_rx_t). */
+typedef struct {
+  sim_cycles_t start; /* start of the start bit on the wire */
+  sim_cycles_t end;   /* end of the stop bit */
+  uint8_t sent;       /* as the sender sent it */
+  uint8_t wire;       /* after the line's noise (== sent without noise) */
+  uint8_t flags;      /* BUS_RX_COLLISION, BUS_RX_TRUNCATED, BUS_RX_FRAMING_ERROR */
+  uint8_t sender;     /* node index */
+} bus_tap_byte_t;
+
+/* Called once for every byte the bus finalizes, in the order of their ends, on the thread
+ * that runs bus_finalize (the world's main thread), after the byte's collisions are known and
+ * before it is delivered. It must not call back into the bus. */
+typedef void (*bus_tap_fn)(void *ctx, const bus_tap_byte_t *byte);
+
 #define BUS_HISTORY 16u
 
 typedef struct {
@@ -110,6 +127,8 @@ typedef struct {
   bus_noise_t noise;
   uint64_t noise_corrupted_bytes; /* bytes with at least one flipped bit */
   uint64_t noise_flipped_bits;
+  bus_tap_fn tap; /* NULL: no tap, nothing done per byte */
+  void *tap_ctx;
 } bus_t;
 
 void bus_init(bus_t *bus);
@@ -123,6 +142,10 @@ int bus_add_node(bus_t *bus, const char *name, const bus_node_ops_t *ops);
  * after bus_init) is no noise and no PRNG draws. Returns false, leaving the noise off, for a
  * rate outside [0, 1). Call it between world steps (the main thread finalizes). */
 bool bus_set_noise(bus_t *bus, double bit_error_rate, uint64_t seed);
+
+/* Offers every byte finalized from now on to tap (NULL removes it; one tap at a time: a
+ * bus monitor fans its packets out to several listeners). Call it between world steps. */
+void bus_set_tap(bus_t *bus, bus_tap_fn tap, void *ctx);
 
 /* Node `node` puts a byte on the wire starting at `start` (or when its previous byte ends,
  * if later) at its current bit time. Returns the end of the byte's stop bit. */

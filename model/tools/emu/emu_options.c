@@ -53,6 +53,9 @@ static const char usage_text[] =
     "                      also serve the live dashboard at http://HOST:PORT/ (HOST\n"
     "                      default 127.0.0.1: this machine only; docs/dashboard.md)\n"
     "  --stats             print bus, adapter and timing statistics to stderr on exit\n"
+    "  --log-bus FILE      every packet on the bus, one CSV row each (time, sender, ID,\n"
+    "                      instruction or error bits, parameters, checksum, collision, raw\n"
+    "                      bytes); replay it with `scripts/ax12 replay` (docs/emulator.md)\n"
     "  --bit-error-rate RATE\n"
     "                      noise: every bit on the wire (start, 8 data, stop) flips with\n"
     "                      probability RATE, 0 <= RATE < 1 (default 0: none), both ways;\n"
@@ -172,7 +175,7 @@ bool emu_servo_world(const serve_options_t *o, uint8_t id, plant_options_t *worl
 int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
   enum { OPT_IDS = 256, OPT_LINK, OPT_STATE_DIR, OPT_PROFILE, OPT_MCU, OPT_BAUD, OPT_REALTIME, OPT_FAST, OPT_ELF,
          OPT_FIRMWARE_DIR, OPT_STATS, OPT_BIT_ERROR_RATE, OPT_SEED, OPT_ADAPTER,
-         OPT_WORLD, OPT_CONTROL, OPT_DASHBOARD };
+         OPT_WORLD, OPT_CONTROL, OPT_DASHBOARD, OPT_LOG_BUS };
   static const struct option long_options[] = {
       {"ids", required_argument, NULL, OPT_IDS},
       {"link", required_argument, NULL, OPT_LINK},
@@ -191,6 +194,7 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       {"world", required_argument, NULL, OPT_WORLD},
       {"control", required_argument, NULL, OPT_CONTROL},
       {"dashboard", required_argument, NULL, OPT_DASHBOARD},
+      {"log-bus", required_argument, NULL, OPT_LOG_BUS},
       PLANT_LONG_OPTIONS,
       {"help", no_argument, NULL, 'h'},
       {NULL, 0, NULL, 0},
@@ -293,6 +297,12 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
         return fail_usage("bad --dashboard '%s': [HOST:]PORT, PORT 1..65535", optarg);
       }
       o->dashboard = optarg;
+      break;
+    case OPT_LOG_BUS:
+      if (!optarg[0]) {
+        return fail_usage("empty --log-bus");
+      }
+      o->log_bus = optarg;
       break;
     case 'h':
       emu_print_usage(stdout);

@@ -43,6 +43,7 @@ typedef struct {
   double bit_error_rate; /* per bit on the wire, [0, 1) */
   uint64_t noise_seed;
   usb_adapter_config_t adapter; /* between the pty and the bus (--adapter) */
+  const char *log_bus;          /* --log-bus FILE.csv, NULL for none (no bus tap at all) */
   plant_options_t world;         /* every servo's world (--supply, --load-torque, ...) */
   servo_world_option_t servo_world[EMU_SERVO_WORLD_MAX];
   size_t servo_world_count;

@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "emu_bus_log.h"
 #include "emu_control.h"
 #include "emu_dashboard.h"
 #include "pacing.h"
@@ -166,6 +167,14 @@ int emu_serve(const serve_options_t *o) {
     world_destroy(world);
     return 1;
   }
+  emu_bus_log_t bus_logging;
+  if (emu_bus_log_start(&bus_logging, o->log_bus, &world->bus, pty.node, err, sizeof(err)) != 0) {
+    fprintf(stderr, "ax12-emu: %s\n", err);
+    pty_bridge_close(&pty);
+    release_locks(locks, lock_count);
+    world_destroy(world);
+    return 1;
+  }
 
   static emu_control_t control;
   bool control_open = false;
@@ -263,6 +272,7 @@ int emu_serve(const serve_options_t *o) {
     if (control_open) {
       emu_control_poll(&control);
     }
+    emu_bus_log_tick(&bus_logging, world->now);
     if (!warned_persist) {
       for (size_t i = 0; i < world->servo_count; i++) {
         if (world->servos[i]->persist_errors) {
@@ -302,9 +312,10 @@ int emu_serve(const serve_options_t *o) {
   if (o->stats) {
     print_stats(world, &pty, &pacing);
   }
+  const int log_failed = emu_bus_log_stop(&bus_logging, o->stats);
   pty_bridge_close(&pty);
   world_destroy(world);
   release_locks(locks, lock_count); /* after the last state file was written */
-  return failures ? 1 : 0;
+  return failures || log_failed ? 1 : 0;
 }
 
