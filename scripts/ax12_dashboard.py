@@ -8,7 +8,8 @@ The server holds two connections to the control socket: one subscribed to teleme
 with every control table) and to the bus monitor's packets, one for the page's requests. A
 page's edit of a control-table item becomes a Protocol 1.0 WRITE that the emulator puts on the
 bus (so it obeys every rule a client's write obeys; the servo's status packet is the answer);
-a world change goes to the emulator as it is. Bad input gets a message and changes nothing;
+a world change goes to the emulator as it is. The bus monitor's packets come in batches (one
+message per batch, every 50 ms at most), so a busy bus costs the page and this server little. Bad input gets a message and changes nothing;
 a page that stops reading is dropped, and nothing a page does stops the bus.
 
 Started by ax12-emu with --control PATH --listen HOST:PORT; prints one line
@@ -79,8 +80,8 @@ class Emulator:
             event = json.loads(line)
             if event.get("event") == "telemetry":
                 self.latest = event
-            elif event.get("event") == "packet":
-                self.packets.append(event)
+            elif event.get("event") == "packets":
+                self.packets.extend(event["packets"])
                 del self.packets[:-PACKETS_KEPT]
             elif "event" not in event:
                 continue

@@ -45,6 +45,7 @@ struct bus_monitor {
   bus_t *bus;
   sim_cycles_t gap;
   int client; /* node index, -1 for none */
+  bool master[BUS_MAX_NODES]; /* other nodes whose packets are instructions */
   sender_t *senders[BUS_MAX_NODES]; /* allocated at a node's first byte */
   uint8_t open[BUS_MAX_NODES];      /* senders with bytes not reported */
   size_t open_count;
@@ -79,6 +80,16 @@ void bus_monitor_destroy(bus_monitor_t *mon) {
 }
 
 void bus_monitor_set_client(bus_monitor_t *mon, int node) { mon->client = node; }
+
+void bus_monitor_add_master(bus_monitor_t *mon, int node) {
+  if (node >= 0 && node < (int)BUS_MAX_NODES) {
+    mon->master[node] = true;
+  }
+}
+
+static bool sends_instructions(const bus_monitor_t *mon, unsigned sender) {
+  return (int)sender == mon->client || mon->master[sender];
+}
 
 int bus_monitor_add_listener(bus_monitor_t *mon, bus_packet_fn fn, void *ctx) {
   for (size_t i = 0; i < BUS_MONITOR_MAX_LISTENERS; i++) {
@@ -213,7 +224,7 @@ static void scan(bus_monitor_t *mon, uint8_t sender, sender_t *s, bool ending) {
     const frame_t f = frame(s->candidate, s->candidate_count, &total);
     if (f == FRAME_PACKET) {
       report_garbage(mon, sender, s);
-      report(mon, sender, (int)sender == mon->client ? BUS_PACKET_INSTRUCTION : BUS_PACKET_STATUS, s->candidate,
+      report(mon, sender, sends_instructions(mon, sender) ? BUS_PACKET_INSTRUCTION : BUS_PACKET_STATUS, s->candidate,
              total);
       drop_candidate(s, total);
     } else if (f == FRAME_PROTOCOL2) {

@@ -86,6 +86,9 @@ void bus_monitor_destroy(bus_monitor_t *mon);
 
 /* The node whose packets are instructions (the pty bridge, a test master). */
 void bus_monitor_set_client(bus_monitor_t *mon, int node);
+/* Another node whose packets are instructions, reported under its own name (a second master:
+ * the dashboard's edits, emu_control.h). */
+void bus_monitor_add_master(bus_monitor_t *mon, int node);
 
 /* Adds a listener of every record from now on. Returns its handle (>= 0) for
  * bus_monitor_remove_listener, -1 when BUS_MONITOR_MAX_LISTENERS are there already. */

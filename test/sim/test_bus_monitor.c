@@ -218,6 +218,23 @@ static void test_a_servo_packet_is_a_status_with_its_error_bits_named(void **sta
   rig_free(r);
 }
 
+static void test_a_second_master_sends_instructions_under_its_own_name(void **state) {
+  (void)state;
+  rig_t *r = rig_new();
+  bus_monitor_add_master(r->mon, r->servo2); /* node 2 stands for the control socket's master */
+  uint8_t request[16], reply[16];
+  const uint8_t write_params[] = {0x19, 0x01};
+  const size_t n_req = packet_encode(request, 1, 0x03, write_params, sizeof(write_params));
+  const size_t n_reply = packet_encode(reply, 1, 0x00, NULL, 0);
+  const sim_cycles_t end = send(r, r->servo2, request, n_req, 0);
+  send(r, r->servo1, reply, n_reply, end + sim_us(500));
+  assert_int_equal(r->log.count, 2);
+  assert_record(&r->log.r[0], BUS_PACKET_INSTRUCTION, "servo-2", "FF FF 01 04 03 19 01 DD");
+  assert_int_equal(r->log.r[0].p.code, 0x03);
+  assert_record(&r->log.r[1], BUS_PACKET_STATUS, "servo-1", "FF FF 01 02 00 FC");
+  rig_free(r);
+}
+
 static void test_another_sender_ends_a_partial_packet_which_is_garbage(void **state) {
   (void)state;
   rig_t *r = rig_new();
@@ -450,6 +467,7 @@ int main(void) {
       cmocka_unit_test(test_a_length_below_two_is_no_packet_and_the_next_one_is_found),
       cmocka_unit_test(test_a_bad_checksum_is_a_packet_with_checksum_ok_false),
       cmocka_unit_test(test_a_servo_packet_is_a_status_with_its_error_bits_named),
+      cmocka_unit_test(test_a_second_master_sends_instructions_under_its_own_name),
       cmocka_unit_test(test_another_sender_ends_a_partial_packet_which_is_garbage),
       cmocka_unit_test(test_colliding_replies_are_both_reported_with_the_collision_flag),
       cmocka_unit_test(test_a_protocol_2_frame_is_skipped_whole_and_keeps_sync),

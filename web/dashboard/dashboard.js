@@ -235,18 +235,23 @@ function applyWorld(event) {
 
 // ---- bus monitor --------------------------------------------------------------------------
 
+// The filter: IDs separated by spaces or commas; packets without an ID (garbage) only when
+// no filter is set.
 function packetMatches(p) {
   const filter = $("monitor-filter").value.trim();
   if (!filter) return true;
-  return filter.split(/[ ,]+/).some((id) => Number(id) === p.id);
+  return filter.split(/[ ,]+/).some((id) => id !== "" && Number(id) === p.id);
 }
 
 function packetRow(p) {
   const tr = document.createElement("tr");
-  const what = p.instruction_name ?? (p.error !== undefined ? (errorNames(p.error).join(", ") || "status, no error") : "–");
+  let what = p.kind; // garbage, protocol2
+  if (p.kind === "instruction") what = p.instruction_name;
+  if (p.kind === "status") what = errorNames(p.error).join(", ") || "status, no error";
   tr.append(cell(Number(p.time_us).toFixed(1)), cell(p.sender, "text"), cell(p.id ?? "–"), cell(what, "text"),
-    cell(p.params ?? "", "text"), cell(p.checksum_ok === false ? "bad" : p.checksum_ok ? "good" : "–",
-      p.checksum_ok === false ? "bad" : ""));
+    cell(p.kind === "instruction" || p.kind === "status" ? p.params : p.raw, "text"),
+    cell(p.checksum_ok === false ? "bad" : p.checksum_ok ? "good" : "–", p.checksum_ok === false ? "bad" : ""));
+  if (p.collision) tr.className = "collision";
   return tr;
 }
 
@@ -266,12 +271,20 @@ function renderMonitor() {
 }
 
 function exportCsv() {
-  const rows = [["time_us", "sender", "id", "instruction_or_error", "params", "checksum_ok"]];
+  // The columns of `serve --log-bus` (docs/emulator.md), so `ax12 replay` reads an export.
+  const rows = [["time_us", "end_us", "sender", "kind", "id", "code", "code_name", "params", "checksum_ok",
+    "collision", "line", "raw"]];
+  const hex2 = (v) => "0x" + v.toString(16).toUpperCase().padStart(2, "0");
   for (const p of state.packets.filter(packetMatches)) {
-    rows.push([p.time_us, p.sender, p.id ?? "", p.instruction_name ?? (p.error ?? ""), p.params ?? "",
-      p.checksum_ok]);
+    const framed = p.kind === "instruction" || p.kind === "status";
+    let name = "";
+    if (p.kind === "instruction") name = p.instruction_name;
+    if (p.kind === "status") name = ERROR_NAMES.filter(([bit]) => p.error & bit).map(([, n]) => n.toUpperCase().replace(" ", "_")).join("|") || "NONE";
+    rows.push([p.time_us.toFixed(3), p.end_us.toFixed(3), p.sender, p.kind, framed ? p.id : "", framed ? hex2(p.code) : "",
+      name, framed ? p.params : "", framed ? (p.checksum_ok ? 1 : 0) : "", p.collision ? 1 : 0, "", p.raw]);
   }
-  const text = rows.map((r) => r.map((v) => `"${String(v).replaceAll('"', '""')}"`).join(",")).join("\n") + "\n";
+  const quote = (v) => (/[",\n]/.test(String(v)) ? `"${String(v).replaceAll('"', '""')}"` : String(v));
+  const text = rows.map((r) => r.map(quote).join(",")).join("\n") + "\n";
   const link = document.createElement("a");
   link.href = URL.createObjectURL(new Blob([text], { type: "text/csv" }));
   link.download = "ax12-bus.csv";
@@ -316,7 +329,7 @@ function connect() {
   ws.onmessage = (m) => {
     const event = JSON.parse(m.data);
     if (event.event === "telemetry") onTelemetry(event);
-    else if (event.event === "packet") addPackets([event]);
+    else if (event.event === "packets") addPackets(event.packets);
     else if (event.event === "hello") addPackets(event.packets);
     else if (event.event === "result") say(event.message, event.ok);
   };

@@ -19,6 +19,8 @@
 #define REPLY_GAP_BYTES 10u
 #define REPLY_WAIT_US 1500u
 #define TELEMETRY_HZ_MAX 100.0
+/* Packets go to subscribers in batches at most this far apart (wall clock). */
+#define PACKET_BATCH_PERIOD_US 50000.0
 /* The socket is looked at this often (wall clock) while no packet of "send" is under way. */
 #define POLL_PERIOD_US 1000.0
 
@@ -463,6 +465,113 @@ sim_cycles_t emu_control_next_event(const emu_control_t *c) {
 
 /* ---- requests -------------------------------------------------------------------------- */
 
+/* ---- packets of the bus monitor ------------------------------------------------------- */
+
+static void hex_bytes(const uint8_t *bytes, size_t n, char *out, size_t len) {
+  size_t used = 0;
+  out[0] = '\0';
+  for (size_t i = 0; i < n && used + 4u <= len; i++) {
+    used += (size_t)snprintf(out + used, len - used, i ? " %02X" : "%02X", bytes[i]);
+  }
+}
+
+/* A listener of the monitor (on the simulation thread, between the serve loop's polls). */
+static void on_packet(void *ctx, const bus_packet_t *p) {
+  emu_control_t *c = ctx;
+  if (c->batch_count >= EMU_CONTROL_BATCH_MAX) {
+    c->packets_dropped++;
+    return;
+  }
+  cJSON *j = cJSON_CreateObject();
+  cJSON_AddNumberToObject(j, "time_us", sim_cycles_to_us(p->start));
+  cJSON_AddNumberToObject(j, "end_us", sim_cycles_to_us(p->end));
+  cJSON_AddStringToObject(j, "sender", p->sender_name);
+  cJSON_AddStringToObject(j, "kind", bus_packet_kind_name(p->kind));
+  char hex[3u * BUS_MONITOR_MAX_RAW + 1u];
+  if (p->kind == BUS_PACKET_INSTRUCTION || p->kind == BUS_PACKET_STATUS) {
+    cJSON_AddNumberToObject(j, "id", p->id);
+    cJSON_AddNumberToObject(j, "code", p->code);
+    if (p->kind == BUS_PACKET_INSTRUCTION) {
+      const char *name = bus_packet_instruction_name(p->code);
+      cJSON_AddStringToObject(j, "instruction_name", name ? name : "UNKNOWN");
+    } else {
+      cJSON_AddNumberToObject(j, "error", p->code);
+    }
+    hex_bytes(p->params, p->param_count, hex, sizeof hex);
+    cJSON_AddStringToObject(j, "params", hex);
+    cJSON_AddBoolToObject(j, "checksum_ok", p->checksum_ok);
+  }
+  cJSON_AddBoolToObject(j, "collision", p->collision);
+  hex_bytes(p->raw, p->raw_count, hex, sizeof hex);
+  cJSON_AddStringToObject(j, "raw", hex);
+  if (!c->batch) {
+    c->batch = cJSON_CreateArray();
+  }
+  cJSON_AddItemToArray(c->batch, j);
+  c->batch_count++;
+}
+
+static bool anyone_wants_packets(const emu_control_t *c) {
+  for (unsigned i = 0; i < CONTROL_MAX_CLIENTS; i++) {
+    if (c->with_packets[i] && control_socket_connected(&c->socket, i)) {
+      return true;
+    }
+  }
+  return false;
+}
+
+/* Listens to the monitor while anyone subscribes to packets: --log-bus's, or one made for
+ * that (and removed again when the last subscriber goes, so the bus has no tap then). */
+static void update_packet_listener(emu_control_t *c) {
+  const bool wanted = anyone_wants_packets(c);
+  bus_monitor_t *monitor = *c->shared_monitor ? *c->shared_monitor : c->own_monitor;
+  if (wanted && c->listener < 0) {
+    if (!monitor) {
+      monitor = c->own_monitor = bus_monitor_create(&c->world->bus, sim_us(BUS_MONITOR_DEFAULT_GAP_US));
+      if (!monitor) {
+        return;
+      }
+      bus_monitor_set_client(monitor, c->client_node);
+      bus_monitor_add_master(monitor, c->master->node);
+    }
+    c->listener = bus_monitor_add_listener(monitor, on_packet, c);
+  } else if (!wanted && c->listener >= 0) {
+    bus_monitor_remove_listener(monitor, c->listener);
+    c->listener = -1;
+    if (c->own_monitor) {
+      bus_monitor_destroy(c->own_monitor);
+      c->own_monitor = NULL;
+    }
+  }
+}
+
+static void push_packets(emu_control_t *c, double wall) {
+  if (c->own_monitor) {
+    bus_monitor_flush(c->own_monitor, c->world->now);
+  }
+  if (!c->batch || wall < c->batch_due_us) {
+    return;
+  }
+  c->batch_due_us = wall + PACKET_BATCH_PERIOD_US;
+  cJSON *event = cJSON_CreateObject();
+  cJSON_AddStringToObject(event, "event", "packets");
+  cJSON_AddItemToObject(event, "packets", c->batch);
+  cJSON_AddNumberToObject(event, "dropped", (double)c->packets_dropped);
+  c->batch = NULL;
+  c->batch_count = 0;
+  char *text = cJSON_PrintUnformatted(event);
+  cJSON_Delete(event);
+  if (!text) {
+    return;
+  }
+  for (unsigned i = 0; i < CONTROL_MAX_CLIENTS; i++) {
+    if (c->with_packets[i]) {
+      control_socket_send(&c->socket, i, text);
+    }
+  }
+  free(text);
+}
+
 static void handle_subscribe(emu_control_t *c, unsigned client, const cJSON *req) {
   const cJSON *hz = cJSON_GetObjectItemCaseSensitive(req, "telemetry_hz");
   if (!cJSON_IsNumber(hz) || hz->valuedouble < 0.0 || hz->valuedouble > TELEMETRY_HZ_MAX) {
@@ -472,6 +581,8 @@ static void handle_subscribe(emu_control_t *c, unsigned client, const cJSON *req
   c->period_us[client] = hz->valuedouble > 0.0 ? 1e6 / hz->valuedouble : 0.0;
   c->due_us[client] = pacing_wall_us();
   c->with_table[client] = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(req, "table"));
+  c->with_packets[client] = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(req, "packets"));
+  update_packet_listener(c);
   cJSON *reply = cJSON_CreateObject();
   cJSON_AddBoolToObject(reply, "ok", true);
   cJSON_AddStringToObject(reply, "op", "subscribe");
@@ -512,6 +623,7 @@ static void push_telemetry(emu_control_t *c) {
   for (unsigned i = 0; i < CONTROL_MAX_CLIENTS; i++) {
     if (!control_socket_connected(&c->socket, i)) {
       c->period_us[i] = 0.0;
+      c->with_packets[i] = false;
       continue;
     }
     if (c->period_us[i] <= 0.0 || wall < c->due_us[i]) {
@@ -526,9 +638,12 @@ static void push_telemetry(emu_control_t *c) {
 }
 
 int emu_control_open(emu_control_t *c, const char *path, world_t *world, pty_bridge_t *pty,
-                     plant_options_t *worlds, const uint8_t *slot_ids, const char *elf_path, char *err,
-                     size_t err_len) {
+                     plant_options_t *worlds, const uint8_t *slot_ids, const char *elf_path,
+                     bus_monitor_t **monitor, char *err, size_t err_len) {
   memset(c, 0, sizeof(*c));
+  c->shared_monitor = monitor;
+  c->listener = -1;
+  c->client_node = pty->node;
   c->world = world;
   c->pty = pty;
   c->worlds = worlds;
@@ -538,6 +653,11 @@ int emu_control_open(emu_control_t *c, const char *path, world_t *world, pty_bri
   if (!c->master) {
     snprintf(err, err_len, "control socket: no room on the bus for its master");
     return -1;
+  }
+  /* Named for the bus monitor and --log-bus, whose instruction packets it sends. */
+  snprintf(world->bus.nodes[c->master->node].name, sizeof(world->bus.nodes[c->master->node].name), "control");
+  if (*monitor) {
+    bus_monitor_add_master(*monitor, c->master->node);
   }
   if (control_socket_open(&c->socket, path, err, err_len) != 0) {
     return -1;
@@ -551,6 +671,10 @@ void emu_control_close(emu_control_t *c) {
   if (c->sending) {
     pty_bridge_hold(c->pty, false);
   }
+  memset(c->with_packets, 0, sizeof(c->with_packets));
+  update_packet_listener(c);
+  cJSON_Delete(c->batch);
+  c->batch = NULL;
   control_socket_close(&c->socket);
 }
 
@@ -566,5 +690,7 @@ void emu_control_poll(emu_control_t *c) {
   control_socket_poll(&c->socket);
   progress_send(c);
   push_telemetry(c);
+  update_packet_listener(c); /* a subscriber may have gone */
+  push_packets(c, wall);
   control_socket_poll(&c->socket); /* what the above queued goes out now */
 }

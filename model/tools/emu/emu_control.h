@@ -10,8 +10,12 @@
  *   {"op":"send","bytes":"FF FF 03 04 03 19 01 DB"}  a Protocol 1.0 packet onto the bus as a
  *                                              second master, once the bus is idle; the
  *                                              answer holds the servo's reply bytes
- *   {"op":"subscribe","telemetry_hz":25,"table":true}  status lines pushed at that rate
- *                                              (1..100 Hz; 0 stops)
+ *   {"op":"subscribe","telemetry_hz":25,"table":true,"packets":true}
+ *                                              status lines pushed at that rate (1..100 Hz;
+ *                                              0 stops) and, with "packets", every packet of
+ *                                              the bus monitor (bus_monitor.h), in batches
+ *                                              {"event":"packets","packets":[...]} at most
+ *                                              PACKET_BATCH_PERIOD_US apart
  * Every request gets one line back: {"ok":true,...} or {"ok":false,"error":"..."}; pushed lines
  * carry "event" instead. A bad request changes nothing. */
 #ifndef EMU_CONTROL_H
@@ -21,6 +25,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "bus_monitor.h"
 #include "control_socket.h"
 #include "master.h"
 #include "plant_options.h"
@@ -30,6 +35,7 @@
 
 #define EMU_CONTROL_QUEUE 16u
 #define EMU_CONTROL_PACKET_MAX 256u
+#define EMU_CONTROL_BATCH_MAX 4000u
 
 typedef struct {
   unsigned client;
@@ -56,14 +62,27 @@ typedef struct {
   sim_cycles_t last_rx_end; /* of the reply so far (0: none yet) */
   sim_cycles_t request_end; /* end of the packet's last byte on the wire */
   uint64_t sent_packets;
+  /* The bus monitor's packets for subscribers: the monitor of --log-bus (*shared_monitor) or
+   * one of its own while anyone subscribes; the batch waiting to go out. */
+  bus_monitor_t **shared_monitor;
+  bus_monitor_t *own_monitor;
+  int listener;
+  int client_node;
+  bool with_packets[CONTROL_MAX_CLIENTS];
+  void *batch; /* cJSON array */
+  size_t batch_count;
+  uint64_t packets_dropped; /* past EMU_CONTROL_BATCH_MAX in one batch */
+  double batch_due_us;
   double next_poll_us; /* wall clock */
 } emu_control_t;
 
 /* Opens the socket at path. worlds and slot_ids: one per servo of the world, kept by the
- * caller; worlds are updated by "world" requests. -1 with err set. */
+ * caller; worlds are updated by "world" requests. *monitor: the bus monitor of --log-bus when
+ * there is one (else NULL: one is made while packets are subscribed), client_node the pty's
+ * node. -1 with err set. */
 int emu_control_open(emu_control_t *c, const char *path, world_t *world, pty_bridge_t *pty,
-                     plant_options_t *worlds, const uint8_t *slot_ids, const char *elf_path, char *err,
-                     size_t err_len);
+                     plant_options_t *worlds, const uint8_t *slot_ids, const char *elf_path,
+                     bus_monitor_t **monitor, char *err, size_t err_len);
 void emu_control_close(emu_control_t *c);
 
 /* Between world steps: requests, pushed telemetry, and the packet on the bus. */

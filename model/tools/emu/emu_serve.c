@@ -179,8 +179,8 @@ int emu_serve(const serve_options_t *o) {
   static emu_control_t control;
   bool control_open = false;
   if (o->control_path[0]) {
-    control_open = emu_control_open(&control, o->control_path, world, &pty, worlds, o->ids, o->elf, err,
-                                    sizeof(err)) == 0;
+    control_open = emu_control_open(&control, o->control_path, world, &pty, worlds, o->ids, o->elf,
+                                    &bus_logging.monitor, err, sizeof(err)) == 0;
     if (!control_open && o->control_explicit) {
       fprintf(stderr, "ax12-emu: %s\n", err);
       pty_bridge_close(&pty);
@@ -201,6 +201,7 @@ int emu_serve(const serve_options_t *o) {
       if (control_open) {
         emu_control_close(&control);
       }
+      (void)emu_bus_log_stop(&bus_logging, false);
       pty_bridge_close(&pty);
       release_locks(locks, lock_count);
       world_destroy(world);

@@ -48,7 +48,14 @@ def open_port(device):
 
 
 @pytest.fixture
-def browser():
+def downloads(tmp_path):
+    folder = tmp_path / "downloads"
+    folder.mkdir()
+    return folder
+
+
+@pytest.fixture
+def browser(downloads):
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     driver_path = shutil.which("chromedriver") or "/usr/bin/chromedriver"
     if not chromium or not os.path.exists(driver_path):
@@ -57,6 +64,8 @@ def browser():
     options.binary_location = chromium
     for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1400,1900"):
         options.add_argument(arg)
+    options.add_experimental_option("prefs", {"download.default_directory": str(downloads),
+                                              "download.prompt_for_download": False})
     driver = webdriver.Chrome(service=Service(driver_path), options=options)
     yield driver
     driver.quit()
@@ -86,7 +95,13 @@ def message(driver):
     return driver.find_element(By.ID, "message").text
 
 
-def test_the_dashboard_shows_edits_and_changes_the_world_of_a_live_bus(emulator, browser, tmp_path):
+def monitor_rows(driver):
+    """The bus monitor's rows as lists of cell texts."""
+    return driver.execute_script(
+        "return [...document.querySelectorAll('#monitor tbody tr')].map(r => [...r.cells].map(c => c.textContent));")
+
+
+def test_the_dashboard_shows_edits_and_changes_the_world_of_a_live_bus(emulator, browser, downloads, tmp_path):
     port_number = free_port()
     emu = emulator("--realtime", "--ids", "1-3", "--state-dir", str(tmp_path), "--dashboard", str(port_number))
     url = "http://127.0.0.1:%d/" % port_number
@@ -130,6 +145,26 @@ def test_the_dashboard_shows_edits_and_changes_the_world_of_a_live_bus(emulator,
         wait_for(lambda: "whole number" in message(browser), 5, "the message for abc")
         assert retried(handler.ping, port, 3)[1:] == (sdk.COMM_SUCCESS, 0)
         shot(browser, "2-table")
+
+        # The bus monitor: the page's WRITE as the control master's instruction and the servo's
+        # answer, the SDK's packets as the client's; filtered by ID; exported as CSV.
+        def edit_on_the_monitor():
+            rows = monitor_rows(browser)
+            writes = [r for r in rows if r[1] == "control" and r[2] == "3" and r[3] == "WRITE"]
+            return writes and writes[0][4] == "05 64" and any(r[1] == "client" and r[3] == "PING" for r in rows)
+        wait_for(edit_on_the_monitor, 5, "the page's WRITE and the SDK's PING on the bus monitor")
+        assert any(r[1] == "servo-3" and r[3] == "Range" for r in monitor_rows(browser))
+        browser.find_element(By.ID, "monitor-filter").send_keys("2")
+        wait_for(lambda: monitor_rows(browser) and all(r[2] == "2" for r in monitor_rows(browser)), 5,
+                 "only ID 2 on the filtered monitor")
+        browser.find_element(By.ID, "monitor-export").click()
+        exported = wait_for(lambda: [f for f in downloads.iterdir() if f.suffix == ".csv"], 10, "the CSV download")
+        lines = exported[0].read_text().splitlines()
+        assert lines[0] == "time_us,end_us,sender,kind,id,code,code_name,params,checksum_ok,collision,line,raw"
+        assert len(lines) > 2 and all(line.split(",")[4] == "2" for line in lines[1:])
+        assert any(",client,instruction,2,0x03,WRITE," in line for line in lines)
+        browser.find_element(By.ID, "monitor-filter").clear()
+        browser.execute_script("document.getElementById('monitor-filter').dispatchEvent(new Event('input'))")
 
         # A bad world from the page changes nothing.
         browser.find_element(By.ID, "servo-row-2").click()
