@@ -4,8 +4,10 @@
 page (web/dashboard, charts by uPlot from npm, installed by scripts/setup: nothing is fetched
 at run time) fed through a WebSocket from the emulator's control socket.
 
-The server holds two connections to the control socket: one subscribed to telemetry (25 Hz,
-with every control table) and to the bus monitor's packets, one for the page's requests. A
+The server holds two connections to the control socket: one subscribed, while a page is open,
+to telemetry (20 Hz, each control table 5 times a second) and to the bus monitor's packets,
+one for the page's requests. A page gets every servo 5 times a second (its list and table) and
+the servo it shows 20 times a second (its charts). A
 page's edit of a control-table item becomes a Protocol 1.0 WRITE that the emulator puts on the
 bus (so it obeys every rule a client's write obeys; the servo's status packet is the answer);
 a world change goes to the emulator as it is. The bus monitor's packets come in batches (one
@@ -18,6 +20,7 @@ when the emulator closes the control socket.
 """
 import argparse
 import asyncio
+import collections
 import json
 import os
 import sys
@@ -30,8 +33,9 @@ from aiohttp import WSMsgType, web  # noqa: E402
 
 WEB = os.path.join(REPO, "web", "dashboard")
 UPLOT = os.path.join(WEB, "node_modules", "uplot", "dist")
-TELEMETRY_HZ = 25
-PACKETS_KEPT = 5000       # for a page opened later
+TELEMETRY_HZ = 20         # the selected servo's charts
+TABLE_HZ = 5              # every servo's row and control table
+PACKET_BATCHES_KEPT = 200  # for a page opened later: 10 s of batches (50 ms apart at most)
 PAGE_QUEUE = 2000         # lines waiting for a page before it is dropped
 SEND_TIMEOUT_S = 5.0
 
@@ -41,23 +45,39 @@ def log(message):
 
 
 class Emulator:
-    """The control socket: requests on one connection (one at a time), events on another."""
+    """The control socket: requests on one connection (one at a time), events on another. Events
+    are subscribed to only while a page is open, and relayed as the text they came in (parsed
+    only when a page's request needs the latest telemetry): the server costs the bus little."""
 
     def __init__(self, path):
         self.path = path
         self.lock = asyncio.Lock()
-        self.reader = self.writer = None
-        self.latest = None            # the last telemetry event
-        self.packets = []             # the last PACKETS_KEPT bus-monitor packets
+        self.reader = self.writer = self.events_writer = None
+        self.latest_line = None       # the last telemetry event, as text
+        self.latest_parsed = (None, None)
+        self.batches = collections.deque(maxlen=PACKET_BATCHES_KEPT)  # packet batches, as text
         self.pages = {}               # open WebSocket -> its queue of lines to send
+        self.selected = {}            # open WebSocket -> the slot it shows
 
     async def connect(self):
         self.reader, self.writer = await asyncio.open_unix_connection(self.path, limit=1 << 24)
         events_reader, self.events_writer = await asyncio.open_unix_connection(self.path, limit=1 << 24)
-        self.events_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": TELEMETRY_HZ, "table": True,
-                                        "packets": True}).encode() + b"\n")
-        await self.events_writer.drain()
         return events_reader
+
+    async def subscribe(self):
+        """Telemetry and packets while any page is open, nothing otherwise."""
+        on = bool(self.pages)
+        self.events_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": TELEMETRY_HZ if on else 0,
+                                             "table_hz": TABLE_HZ, "packets": on}).encode() + b"\n")
+        await self.events_writer.drain()
+
+    @property
+    def latest(self):
+        line, parsed = self.latest_parsed
+        if line is not self.latest_line:
+            parsed = json.loads(self.latest_line) if self.latest_line else None
+            self.latest_parsed = (self.latest_line, parsed)
+        return parsed
 
     async def request(self, message):
         async with self.lock:
@@ -77,21 +97,39 @@ class Emulator:
             line = await events_reader.readline()
             if not line:
                 return
-            event = json.loads(line)
-            if event.get("event") == "telemetry":
-                self.latest = event
-            elif event.get("event") == "packets":
-                self.packets.extend(event["packets"])
-                del self.packets[:-PACKETS_KEPT]
-            elif "event" not in event:
-                continue
             text = line.decode().strip()
-            for ws, queue in list(self.pages.items()):
-                try:
-                    queue.put_nowait(text)
-                except asyncio.QueueFull:  # a page that does not keep up is dropped
-                    self.pages.pop(ws, None)
-                    asyncio.ensure_future(ws.close())
+            if text.startswith('{"event":"telemetry"'):
+                self.relay_telemetry(text)
+            elif text.startswith('{"event":"packets"'):
+                self.batches.append(text)
+                for ws in list(self.pages):
+                    self.relay(ws, text)
+
+    def relay(self, ws, text):
+        queue = self.pages.get(ws)
+        if queue is None:
+            return
+        try:
+            queue.put_nowait(text)
+        except asyncio.QueueFull:  # a page that does not keep up is dropped
+            self.pages.pop(ws, None)
+            asyncio.ensure_future(ws.close())
+            asyncio.ensure_future(self.subscribe())
+
+    def relay_telemetry(self, text):
+        """Events with the control tables (TABLE_HZ) go to every page whole: its servo list and
+        table; the others (TELEMETRY_HZ) carry only the servo a page shows, for its charts."""
+        if '"table":[' in text:
+            self.latest_line = text
+            for ws in list(self.pages):
+                self.relay(ws, text)
+            return
+        event = json.loads(text)
+        by_slot = {s["slot"]: s for s in event["servos"]}
+        for ws in list(self.pages):
+            servo = by_slot.get(self.selected.get(ws))
+            if servo is not None:
+                self.relay(ws, json.dumps(dict(event, servos=[servo], partial=True), separators=(",", ":")))
 
 
 def servo_of(emu, slot):
@@ -162,8 +200,11 @@ async def send_queued(ws, queue):
         await ws.send_str(text)
 
 
-async def answer(emu, msg):
+async def answer(emu, ws, msg):
     kind = msg.get("type") if isinstance(msg, dict) else None
+    if kind == "select":
+        emu.selected[ws] = msg.get("slot")
+        return None
     try:
         if kind == "write":
             return await page_write(emu, msg)
@@ -179,8 +220,11 @@ async def websocket(request):
     ws = web.WebSocketResponse(heartbeat=10.0)
     await ws.prepare(request)
     queue = asyncio.Queue(PAGE_QUEUE)
+    for batch in emu.batches:  # the packets of the last seconds first
+        queue.put_nowait(batch)
     emu.pages[ws] = queue
-    queue.put_nowait(json.dumps({"event": "hello", "packets": emu.packets}))
+    if len(emu.pages) == 1:
+        await emu.subscribe()
     sender = asyncio.ensure_future(send_queued(ws, queue))
     try:
         async for frame in ws:
@@ -190,7 +234,10 @@ async def websocket(request):
                 msg = json.loads(frame.data)
             except ValueError:
                 msg = None
-            ok, text = await answer(emu, msg)
+            answered = await answer(emu, ws, msg)
+            if answered is None:
+                continue
+            ok, text = answered
             result = {"event": "result", "req": msg.get("req") if isinstance(msg, dict) else None, "ok": ok,
                       "message": text}
             try:
@@ -199,7 +246,10 @@ async def websocket(request):
                 break
     finally:
         emu.pages.pop(ws, None)
+        emu.selected.pop(ws, None)
         sender.cancel()
+        if not emu.pages:
+            await emu.subscribe()
     return ws
 
 

@@ -162,14 +162,52 @@ def sdk_ping_median_ms(emu, firmware_dir, pings, adapter=DEFAULT_ADAPTER):
     return statistics.median(times)
 
 
-def sdk_client_loop(emu, firmware_dir, servos, seconds, adapter=DEFAULT_ADAPTER):
+def dashboard_page(port_number):
+    """A headless Chromium showing the dashboard at port_number, once it is live (Selenium)."""
+    import shutil
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    from selenium.webdriver.common.by import By
+    options = webdriver.ChromeOptions()
+    options.binary_location = shutil.which("chromium") or "chromium"
+    # A laptop's screen (1366 x 768, the most common): the list and the charts in view.
+    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1366,768"):
+        options.add_argument(arg)
+    driver = webdriver.Chrome(service=Service(shutil.which("chromedriver") or "/usr/bin/chromedriver"),
+                              options=options)
+    driver.get("http://127.0.0.1:%d/" % port_number)
+    deadline = time.monotonic() + 20
+    while driver.find_element(By.ID, "connection").text != "live":
+        if time.monotonic() > deadline:
+            driver.quit()
+            raise RuntimeError("the dashboard page did not go live")
+        time.sleep(0.1)
+    return driver
+
+
+def free_tcp_port():
+    import socket
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def sdk_client_loop(emu, firmware_dir, servos, seconds, adapter=DEFAULT_ADAPTER, dashboard=False):
     """One SYNC_WRITE of goal positions plus a READ of Present Position from every servo,
     repeated through the pty in real time behind `adapter`; then every servo's goal is checked.
-    Also returns the servos' Return Delay Time (for the wire-time floor)."""
+    Also returns the servos' Return Delay Time (for the wire-time floor). With `dashboard`, the
+    emulator serves the dashboard and a headless Chromium shows it throughout."""
     from dynamixel_sdk import GroupSyncWrite
     import ax12_table as T
-    serve = Serve(emu, firmware_dir, "1-%d" % servos, ("--adapter", adapter))
+    extra = ["--adapter", adapter]
+    if dashboard:
+        port_number = free_tcp_port()
+        extra += ["--dashboard", str(port_number)]
+    serve = Serve(emu, firmware_dir, "1-%d" % servos, extra)
+    page = None
     try:
+        if dashboard:
+            page = dashboard_page(port_number)
         port, packet = sdk_port(serve.device)
         rdt, _, _ = packet.read1ByteTxRx(port, 1, T.RETURN_DELAY_TIME)
         for i in range(1, servos + 1):
@@ -200,6 +238,8 @@ def sdk_client_loop(emu, firmware_dir, servos, seconds, adapter=DEFAULT_ADAPTER)
             reached += result == 0 and abs(position - goals[i]) <= 4
         port.closePort()
     finally:
+        if page is not None:
+            page.quit()
         stats = serve.stop()
     return {"loops_per_s": loops / elapsed, "read_failures": failures, "servos_at_goal": reached,
             "rdt_us": 2.0 * rdt, **stats}
@@ -245,6 +285,19 @@ def sdk_loop_table(emu, fw, seconds, row, r):
     return lines
 
 
+def dashboard_cost(emu, fw, seconds, row):
+    """The 30-servo SDK loop without and with the dashboard open in a browser, alternated
+    (without, with, three times) in one run; the ratio of the mean rates (issue: at least
+    0.9)."""
+    rates = {False: [], True: []}
+    for dashboard in (False, True) * 3:
+        rates[dashboard].append(sdk_client_loop(emu, fw, 30, seconds, dashboard=dashboard)["loops_per_s"])
+    without, with_page = statistics.mean(rates[False]), statistics.mean(rates[True])
+    row("dashboard", "30-servo SDK loop without the dashboard", without, "loops/s", "", "dashboard_loop_without")
+    row("dashboard", "30-servo SDK loop, dashboard open in Chromium", with_page, "loops/s", "", "dashboard_loop_with")
+    row("dashboard", "ratio with / without (same run)", with_page / without, "", ">= 0.9", "dashboard_loop_ratio")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--build", required=True)
@@ -252,6 +305,8 @@ def main():
     ap.add_argument("--quick", action="store_true", help="fewer repetitions")
     ap.add_argument("--sdk-loop-only", action="store_true",
                     help="only the DynamixelSDK loop per USB adapter kind and its wire-time floor")
+    ap.add_argument("--dashboard-only", action="store_true",
+                    help="only the 30-servo SDK loop without and with the dashboard open")
     a = ap.parse_args()
     ax12_build.use(a.build)
     fw = os.path.join(a.build, "firmware")
@@ -266,6 +321,15 @@ def main():
         rows.append((section, name, value, unit, goal))
         if key:
             r[key] = value
+
+    if a.dashboard_only:
+        dashboard_cost(emu, fw, 3 if a.quick else 6, row)
+        for _, name, value, unit, goal in rows:
+            print("%-52s %10.3f %-8s %s" % (name, value, unit, goal))
+        with open(a.out, "w") as f:
+            json.dump(r, f, indent=1, sort_keys=True)
+        print("\nbench: wrote %s" % a.out)
+        return
 
     if a.sdk_loop_only:
         lines = sdk_loop_table(emu, fw, 3 if a.quick else 6, row, r)
@@ -357,6 +421,7 @@ def main():
     ping = sdk_ping_median_ms(emu, fw, 50 if a.quick else 200, "wire")
     row("real clients", "DynamixelSDK ping, median (wire)", ping, "ms", "", "sdk_ping_wire_median_ms")
     loop_table = sdk_loop_table(emu, fw, 3 if a.quick else 6, row, r)
+    dashboard_cost(emu, fw, 3 if a.quick else 6, row)
 
     report = os.path.join(os.path.dirname(os.path.abspath(__file__)), "model_report")
     if os.path.exists(report):

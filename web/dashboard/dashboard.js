@@ -5,7 +5,9 @@
 "use strict";
 
 const HISTORY_S = 15;
-const MONITOR_ROWS = 2000;
+const MONITOR_ROWS = 300;       // rows on the page (the export takes every packet kept)
+const MONITOR_KEPT = 10000;     // packets kept
+const MONITOR_PERIOD_MS = 500;  // the monitor is redrawn at most this often
 const state = {
   ws: null, items: [], servos: [], selected: null, history: new Map(), charts: [], profile: "ax12",
   packets: [], nextReq: 1, tableBuiltFor: null,
@@ -167,7 +169,8 @@ function updateTable(s) {
   if (!s || !s.table) return;
   for (const item of state.items) {
     const td = $("value-" + item.addr);
-    if (td) td.textContent = itemValue(s.table, item);
+    const text = String(itemValue(s.table, item));
+    if (td && td.textContent !== text) td.textContent = text;
   }
 }
 
@@ -243,28 +246,39 @@ function packetMatches(p) {
   return filter.split(/[ ,]+/).some((id) => id !== "" && Number(id) === p.id);
 }
 
-function packetRow(p) {
-  const tr = document.createElement("tr");
+const escapeHtml = (text) => String(text).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" })[c]);
+
+function packetRowHtml(p) {
   let what = p.kind; // garbage, protocol2
   if (p.kind === "instruction") what = p.instruction_name;
   if (p.kind === "status") what = errorNames(p.error).join(", ") || "status, no error";
-  tr.append(cell(Number(p.time_us).toFixed(1)), cell(p.sender, "text"), cell(p.id ?? "–"), cell(what, "text"),
-    cell(p.kind === "instruction" || p.kind === "status" ? p.params : p.raw, "text"),
-    cell(p.checksum_ok === false ? "bad" : p.checksum_ok ? "good" : "–", p.checksum_ok === false ? "bad" : ""));
-  if (p.collision) tr.className = "collision";
-  return tr;
+  const framed = p.kind === "instruction" || p.kind === "status";
+  const checksum = p.checksum_ok === false ? '<td class="bad">bad</td>' : `<td>${p.checksum_ok ? "good" : "–"}</td>`;
+  return `<tr${p.collision ? ' class="collision"' : ""}><td>${Number(p.time_us).toFixed(1)}</td>` +
+    `<td class="text">${escapeHtml(p.sender)}</td><td>${framed ? p.id : "–"}</td><td class="text">${escapeHtml(what)}</td>` +
+    `<td class="text">${escapeHtml(framed ? p.params : p.raw)}</td>${checksum}</tr>`;
 }
 
+// Packets arrive in batches (up to thousands a second on a busy bus): the table is redrawn at
+// most every MONITOR_PERIOD_MS, with the last MONITOR_ROWS matching packets.
+// The monitor is drawn only while it is on screen (the packets are kept all the same).
+let monitorTimer = null;
+let monitorVisible = true;
 function addPackets(list) {
   for (const p of list) state.packets.push(p);
-  if (state.packets.length > MONITOR_ROWS * 5) state.packets.splice(0, state.packets.length - MONITOR_ROWS * 5);
-  if (!$("monitor-pause").checked) renderMonitor();
+  if (state.packets.length > MONITOR_KEPT) state.packets.splice(0, state.packets.length - MONITOR_KEPT);
+  if (monitorVisible && !$("monitor-pause").checked && monitorTimer === null) {
+    monitorTimer = setTimeout(() => { monitorTimer = null; renderMonitor(); }, MONITOR_PERIOD_MS);
+  }
 }
 
 function renderMonitor() {
-  const shown = state.packets.filter(packetMatches).slice(-MONITOR_ROWS);
-  const body = $("monitor").tBodies[0];
-  body.replaceChildren(...shown.map(packetRow));
+  const shown = [];
+  for (let i = state.packets.length - 1; i >= 0 && shown.length < MONITOR_ROWS; i--) {
+    if (packetMatches(state.packets[i])) shown.push(state.packets[i]);
+  }
+  shown.reverse();
+  $("monitor").tBodies[0].innerHTML = shown.map(packetRowHtml).join("");
   $("monitor-count").textContent = `${shown.length} shown, ${state.packets.length} kept`;
   const scroll = $("monitor-scroll");
   scroll.scrollTop = scroll.scrollHeight;
@@ -295,6 +309,7 @@ function exportCsv() {
 
 function select(slot) {
   state.selected = slot;
+  if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify({ type: "select", slot }));
   const s = state.servos.find((x) => x.slot === slot);
   $("selected-name").textContent = s ? `${slot} (ID ${s.id ?? "?"})` : "–";
   buildTable();
@@ -303,24 +318,34 @@ function select(slot) {
   drawCharts();
 }
 
+// Events come whole (every servo, with control tables) 5 times a second, and with only the
+// servo shown ("partial") in between, 20 a second in all: the charts take each.
 function onTelemetry(event) {
   state.profile = event.profile;
+  for (const s of event.servos) record(event.time_us / 1e6, s);
+  if (!state.drawPending) { // one chart redraw per frame at most, whatever the event rate
+    state.drawPending = true;
+    requestAnimationFrame(() => { state.drawPending = false; drawCharts(); });
+  }
+  if (event.partial) return;
+  state.servos = event.servos;
   $("profile").textContent = `${event.servos.length} servo(s), profile ${event.profile}, ${event.mcu}`;
   $("clock").textContent = `t = ${(event.time_us / 1e6).toFixed(2)} s`;
-  state.servos = event.servos;
-  for (const s of event.servos) record(event.time_us / 1e6, s);
   if (state.selected === null && event.servos.length) select(event.servos[0].slot);
   renderServos();
   const s = event.servos.find((x) => x.slot === state.selected);
   updateTable(s);
   if (s) $("world-now").textContent = describeWorld(s.world);
-  drawCharts();
 }
 
 function connect() {
   const ws = new WebSocket(`ws://${location.host}/ws`);
   state.ws = ws;
-  ws.onopen = () => { $("connection").textContent = "live"; $("connection").className = "good"; };
+  ws.onopen = () => {
+    $("connection").textContent = "live";
+    $("connection").className = "good";
+    if (state.selected !== null) ws.send(JSON.stringify({ type: "select", slot: state.selected }));
+  };
   ws.onclose = () => {
     $("connection").textContent = "disconnected (is the emulator still running?)";
     $("connection").className = "bad";
@@ -330,7 +355,6 @@ function connect() {
     const event = JSON.parse(m.data);
     if (event.event === "telemetry") onTelemetry(event);
     else if (event.event === "packets") addPackets(event.packets);
-    else if (event.event === "hello") addPackets(event.packets);
     else if (event.event === "result") say(event.message, event.ok);
   };
 }
@@ -344,6 +368,10 @@ async function start() {
   $("monitor-filter").addEventListener("input", renderMonitor);
   $("monitor-export").addEventListener("click", exportCsv);
   $("monitor-clear").addEventListener("click", () => { state.packets = []; renderMonitor(); });
+  new IntersectionObserver((entries) => {
+    monitorVisible = entries.some((e) => e.isIntersecting);
+    if (monitorVisible && !$("monitor-pause").checked) renderMonitor();
+  }).observe($("monitor-scroll"));
   connect();
 }
 

@@ -581,6 +581,14 @@ static void handle_subscribe(emu_control_t *c, unsigned client, const cJSON *req
   c->period_us[client] = hz->valuedouble > 0.0 ? 1e6 / hz->valuedouble : 0.0;
   c->due_us[client] = pacing_wall_us();
   c->with_table[client] = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(req, "table"));
+  /* "table_hz": tables in only some events (a page redraws its table a few times a second) */
+  const cJSON *table_hz = cJSON_GetObjectItemCaseSensitive(req, "table_hz");
+  c->table_period_us[client] = 0.0;
+  if (cJSON_IsNumber(table_hz) && table_hz->valuedouble > 0.0) {
+    c->with_table[client] = true;
+    c->table_period_us[client] = 1e6 / table_hz->valuedouble;
+  }
+  c->table_due_us[client] = 0.0;
   c->with_packets[client] = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(req, "packets"));
   update_packet_listener(c);
   cJSON *reply = cJSON_CreateObject();
@@ -633,7 +641,14 @@ static void push_telemetry(emu_control_t *c) {
     if (c->due_us[i] < wall) {
       c->due_us[i] = wall + c->period_us[i]; /* fell behind: no burst to catch up */
     }
-    send_json(c, i, status_json(c, true, c->with_table[i]));
+    bool table = c->with_table[i];
+    if (table && c->table_period_us[i] > 0.0) {
+      table = wall >= c->table_due_us[i];
+      if (table) {
+        c->table_due_us[i] = wall + c->table_period_us[i];
+      }
+    }
+    send_json(c, i, status_json(c, true, table));
   }
 }
 

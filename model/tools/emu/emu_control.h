@@ -12,7 +12,8 @@
  *                                              answer holds the servo's reply bytes
  *   {"op":"subscribe","telemetry_hz":25,"table":true,"packets":true}
  *                                              status lines pushed at that rate (1..100 Hz;
- *                                              0 stops) and, with "packets", every packet of
+ *                                              0 stops), with the control tables ("table_hz":
+ *                                              5 instead: in events at most that often) and, with "packets", every packet of
  *                                              the bus monitor (bus_monitor.h), in batches
  *                                              {"event":"packets","packets":[...]} at most
  *                                              PACKET_BATCH_PERIOD_US apart
@@ -54,6 +55,8 @@ typedef struct {
   double period_us[CONTROL_MAX_CLIENTS];
   double due_us[CONTROL_MAX_CLIENTS];
   bool with_table[CONTROL_MAX_CLIENTS];
+  double table_period_us[CONTROL_MAX_CLIENTS]; /* tables only this far apart (0: in every event) */
+  double table_due_us[CONTROL_MAX_CLIENTS];
   /* Packets to put on the bus, the first one in flight once `sending`. */
   master_t *master;
   emu_control_send_t queue[EMU_CONTROL_QUEUE];
