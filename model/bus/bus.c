@@ -132,6 +132,20 @@ sim_cycles_t bus_next_finalize(const bus_t *bus) {
   return next;
 }
 
+sim_cycles_t bus_first_pending_start(const bus_t *bus) {
+  sim_cycles_t first = SIM_CYCLES_NEVER;
+  if (!bus->pending_total) {
+    return first;
+  }
+  for (size_t i = 0; i < bus->node_count; i++) {
+    const bus_node_t *n = &bus->nodes[i];
+    if (n->pending_count && pending_at_const(n, 0)->start < first) {
+      first = pending_at_const(n, 0)->start;
+    }
+  }
+  return first;
+}
+
 void bus_baud_changed(bus_t *bus) { __atomic_store_n(&bus->lookahead, 0u, __ATOMIC_RELAXED); }
 
 sim_cycles_t bus_lookahead(bus_t *bus) {

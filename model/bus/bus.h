@@ -136,6 +136,10 @@ void bus_release(bus_t *bus, int node, sim_cycles_t at);
  * SIM_CYCLES_NEVER. */
 sim_cycles_t bus_next_finalize(const bus_t *bus);
 
+/* The earliest start among the bytes not yet finalized, or SIM_CYCLES_NEVER: no delivery
+ * made later concerns a moment before it (a trace commits what lies before it). */
+sim_cycles_t bus_first_pending_start(const bus_t *bus);
+
 /* A node's bit time changed (it must call this whenever its cycles_per_bit() would return
  * something new). */
 void bus_baud_changed(bus_t *bus);

@@ -49,6 +49,9 @@ static void clear_flag(avr_t *avr, avr_int_vector_t *vector) {
 
 static void start_byte(uart_link_t *link, uint8_t value, sim_cycles_t at) {
   link->shift_busy = true;
+  if (__builtin_expect(link->observer != NULL, 0) && link->observer->tx) {
+    link->observer->tx(link->observer->ctx, value, at, link->cycles_per_bit);
+  }
   if (link->driving) {
     link->shift_end = bus_send(link->bus, link->node, value, at);
     link->tx_bytes++;
@@ -213,6 +216,9 @@ static void arm_rx(uart_link_t *link) {
 
 static void node_deliver(void *ctx, const bus_rx_t *rx) {
   uart_link_t *link = ctx;
+  if (__builtin_expect(link->observer != NULL, 0) && link->observer->rx) {
+    link->observer->rx(link->observer->ctx, rx);
+  }
   if (link->rx_count == UART_LINK_RX_QUEUE) {
     link->rx_overruns++;
     return;

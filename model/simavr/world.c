@@ -9,6 +9,7 @@
 #include <sim_elf.h>
 
 #include "servo_eeprom.h"
+#include "servo_gdb.h"
 #include "servo_plant.h"
 #include "servo_run.h"
 #include "sim_log.h"
@@ -149,13 +150,32 @@ static void step_plants(world_t *world, sim_cycles_t now) {
   world->plant_due = due;
 }
 
+void world_set_debugged(world_t *world, servo_t *servo) {
+  (void)world_set_threads(world, 1);
+  world->debugged = servo;
+}
+
+bool world_held(const world_t *world) { return world->debugged && servo_gdb_holds(world->debugged); }
+
+/* The debugged servo runs first: when gdb stops it before the step's end, the step ends
+ * where it stopped, so the others do not run past it. */
+static sim_cycles_t run_debugged(world_t *world, sim_cycles_t horizon) {
+  servo_t *servo = world->debugged;
+  servo_run_until(servo, horizon);
+  if (!servo_gdb_holds(servo)) {
+    return horizon;
+  }
+  const sim_cycles_t at = servo->avr->cycle;
+  return at < world->now ? world->now : (at < horizon ? at : horizon);
+}
+
 void world_run_until(world_t *world, sim_cycles_t t) {
   bus_t *bus = &world->bus;
   if (!world->threads_chosen) {
     world_choose_threads(world);
   }
   __atomic_store_n(&world->worker_park, false, __ATOMIC_RELAXED);
-  while (world->now < t) {
+  while (world->now < t && !world_held(world)) {
     bus_finalize(bus, world->now);
     sim_cycles_t horizon = t;
     const sim_cycles_t wake = earliest_wake(world);
@@ -171,6 +191,9 @@ void world_run_until(world_t *world, sim_cycles_t t) {
     }
     if (world->plant_due > world->now && world->plant_due < horizon) {
       horizon = world->plant_due;
+    }
+    if (__builtin_expect(world->debugged != NULL, 0)) {
+      horizon = run_debugged(world, horizon);
     }
     world_run_servos(world, horizon);
     world->now = horizon;
@@ -197,7 +220,7 @@ bool world_eeprom_unsettled(const world_t *world) {
 
 int world_settle_and_persist(world_t *world, sim_cycles_t max_cycles) {
   const sim_cycles_t limit = world->now + max_cycles;
-  while (world->now < limit && world_eeprom_unsettled(world)) {
+  while (world->now < limit && world_eeprom_unsettled(world) && !world_held(world)) {
     world_run_until(world, world->now + sim_us(100));
   }
   int failures = 0;

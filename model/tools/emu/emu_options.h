@@ -34,7 +34,15 @@ typedef struct {
   uint64_t noise_seed;
   usb_adapter_config_t adapter; /* between the pty and the bus (--adapter) */
   plant_options_t world;
+  const char *trace_path;  /* --trace: the VCD file; NULL = no trace */
+  uint8_t trace_ids[ID_LIST_MAX_ID + 1u]; /* --trace-ids: the servos traced (all of --ids if not given) */
+  size_t trace_id_count;   /* 0: every servo */
+  bool gdb;                /* --gdb given */
+  uint8_t gdb_id;          /* the servo opened to gdb */
+  unsigned gdb_port;       /* its TCP port (default EMU_GDB_DEFAULT_PORT) */
 } serve_options_t;
+
+#define EMU_GDB_DEFAULT_PORT 1234u
 
 /* Prints the usage text, the world options included. */
 void emu_print_usage(FILE *out);
