@@ -3,6 +3,7 @@
 
 #include <arpa/inet.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <netinet/in.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -156,12 +157,12 @@ typedef struct {
 
 static gdb_stub_t *stub_of(const avr_t *avr) { return (gdb_stub_t *)avr->gdb; }
 
-/* Runs fn(avr, arg) with stdout on stderr (the stub prints on stdout). */
-static int with_stdout_on_stderr(int (*fn)(avr_t *avr, int arg), avr_t *avr, int arg) {
+/* Runs fn(avr, arg) with stdout on file descriptor `to` (the stub prints on stdout). */
+static int with_stdout_on(int to, int (*fn)(avr_t *avr, int arg), avr_t *avr, int arg) {
   fflush(stdout);
   const int saved = dup(STDOUT_FILENO);
-  if (saved >= 0) {
-    (void)dup2(STDERR_FILENO, STDOUT_FILENO);
+  if (saved >= 0 && to >= 0) {
+    (void)dup2(to, STDOUT_FILENO);
   }
   const int r = fn(avr, arg);
   fflush(stdout);
@@ -206,7 +207,13 @@ bool simavr_gdb_open(avr_t *avr, unsigned port, char *err, size_t err_len) {
     return false;
   }
   avr->gdb_port = 0; /* the stub's own socket: any free port, replaced below */
-  if (with_stdout_on_stderr(gdb_init, avr, 0) != 0 || !avr->gdb) {
+  /* Its line names the port it is about to lose: to /dev/null. */
+  const int null_fd = open("/dev/null", O_WRONLY | O_CLOEXEC);
+  const int started = with_stdout_on(null_fd, gdb_init, avr, 0);
+  if (null_fd >= 0) {
+    close(null_fd);
+  }
+  if (started != 0 || !avr->gdb) {
     snprintf(err, err_len, "gdb: simavr's stub did not start");
     close(listener);
     return false;
@@ -250,7 +257,7 @@ bool simavr_gdb_serve(avr_t *avr, unsigned wait_us) {
     due = select(fd + 1, &read_set, NULL, NULL, &timeout) > 0;
   }
   if (due) {
-    (void)with_stdout_on_stderr(gdb_process, avr, 0);
+    (void)with_stdout_on(STDERR_FILENO, gdb_process, avr, 0);
   }
   return due;
 }
@@ -258,7 +265,7 @@ bool simavr_gdb_serve(avr_t *avr, unsigned wait_us) {
 void simavr_gdb_report_stop(avr_t *avr) {
   if (avr->gdb) {
     avr->state = cpu_StepDone; /* avr_gdb_processor reports it and stops the core */
-    (void)with_stdout_on_stderr(gdb_process, avr, 0);
+    (void)with_stdout_on(STDERR_FILENO, gdb_process, avr, 0);
   }
 }
 
