@@ -165,7 +165,8 @@ def test_gdb_stops_at_the_tick_reads_registers_and_the_table_and_the_bus_runs_on
     port = free_port()
     emu = emulator("--fast", "--ids", "1,2", "--state-dir", str(tmp_path / "state"), "--gdb", f"1:{port}")
     out = run_gdb(gdb, port, f"break {TICK_VECTOR}", "continue", "info registers pc", "p/x servo.table[3]",
-                  "p/x servo.table[0]@2", "bt 1", "stepi", "info registers pc")
+                  "p/x servo.table[0]@2", "bt 1", "stepi", "info registers pc", "delete",
+                  "watch timebase_ms_count", "continue")
     assert out.returncode == 0, out.stderr
     text = out.stdout
     assert "Breakpoint 1, 0x" in text and f"in {TICK_VECTOR} ()" in text, text
@@ -175,6 +176,7 @@ def test_gdb_stops_at_the_tick_reads_registers_and_the_table_and_the_bus_runs_on
     assert f"<{TICK_VECTOR}+" in pcs[1]  # one instruction further
     assert "$1 = 0x1" in text                   # the ID, address 3 of the control table
     assert "$2 = {0xc, 0x0}" in text            # Model Number 12
+    assert "Old value = " in text and "New value = " in text, text  # the tick's ISR counts
     # gdb has gone: the servos run and answer again.
     with serial.Serial(emu.device, 1000000, timeout=1.0) as serial_port:
         for ident in (1, 2):
