@@ -132,6 +132,12 @@ sim_cycles_t bus_next_finalize(const bus_t *bus) {
   return next;
 }
 
+void bus_set_node_deliver(bus_t *bus, int node, void (*deliver)(void *ctx, const bus_rx_t *rx)) {
+  if (node >= 0 && (size_t)node < bus->node_count) {
+    bus->nodes[node].ops.deliver = deliver;
+  }
+}
+
 sim_cycles_t bus_first_pending_start(const bus_t *bus) {
   sim_cycles_t first = SIM_CYCLES_NEVER;
   if (!bus->pending_total) {

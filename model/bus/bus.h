@@ -118,6 +118,9 @@ void bus_free(bus_t *bus);
 /* Adds a node; returns its index, or -1 when the bus is full. */
 int bus_add_node(bus_t *bus, const char *name, const bus_node_ops_t *ops);
 
+/* Replaces the deliver callback of node (its ctx stays): call between world steps. */
+void bus_set_node_deliver(bus_t *bus, int node, void (*deliver)(void *ctx, const bus_rx_t *rx));
+
 /* Noise on the wire from now on: every bit of every byte finalized later flips with
  * probability bit_error_rate, from a PRNG seeded with seed (bus_noise.h). Rate 0 (the state
  * after bus_init) is no noise and no PRNG draws. Returns false, leaving the noise off, for a

@@ -5,7 +5,9 @@
 
 #include <sim_avr.h>
 
+#include "servo_run.h"
 #include "simavr_patch.h"
+#include "simavr_patch_run.h"
 
 static bool state_held(int state) { return state == cpu_Stopped || state == cpu_StepDone; }
 
@@ -55,6 +57,8 @@ void servo_gdb_poll(servo_gdb_t *gdb, unsigned wait_us) {
     gdb->stops++;
   } else if (state_held(before) && after == cpu_Running) {
     released(gdb); /* continue or detach */
+  } else if (before == cpu_Sleeping && after == cpu_Running) {
+    avr->state = cpu_Sleeping; /* gdb went away while the core slept: the stub sets Running */
   }
 }
 
@@ -62,23 +66,21 @@ unsigned servo_gdb_pc(const servo_gdb_t *gdb) { return (unsigned)gdb->servo->avr
 
 bool servo_gdb_holds(const servo_t *servo) { return servo->gdb && state_held(servo->avr->state); }
 
-bool servo_gdb_may_run(servo_t *servo) {
-  avr_t *avr = servo->avr;
+/* False while gdb holds the core; a stepi's instruction becomes one to run. */
+static bool may_run(servo_gdb_t *gdb) {
+  avr_t *avr = gdb->servo->avr;
   if (avr->state == cpu_Step) {
-    servo->gdb->stepping = true;
+    gdb->stepping = true;
     avr->state = cpu_Running;
     return true;
   }
   return !state_held(avr->state);
 }
 
-bool servo_gdb_single_steps(const servo_t *servo) {
-  return servo->gdb->stepping || simavr_gdb_has_breakpoints(servo->avr);
-}
-
-bool servo_gdb_after_step(servo_t *servo) {
-  servo_gdb_t *gdb = servo->gdb;
-  avr_t *avr = servo->avr;
+/* After an instruction: true when the servo stops here (a stepi done, a watchpoint hit, a
+ * breakpoint at the new PC); the stop is reported to gdb. */
+static bool stops_here(servo_gdb_t *gdb) {
+  avr_t *avr = gdb->servo->avr;
   if (gdb->stepping) {
     gdb->stepping = false;
     gdb->held_from = avr->state == cpu_Sleeping ? cpu_Sleeping : cpu_Running;
@@ -97,4 +99,20 @@ bool servo_gdb_after_step(servo_t *servo) {
     return true;
   }
   return false;
+}
+
+void servo_gdb_run_until(servo_t *servo, sim_cycles_t t) {
+  servo_gdb_t *gdb = servo->gdb;
+  avr_t *avr = servo->avr;
+  while (!servo->halted && avr->cycle < t && may_run(gdb)) {
+    sim_cycles_t to = avr->cycle + 1u; /* a running core: one instruction */
+    if (avr->state == cpu_Sleeping && !avr->interrupt_state) {
+      const sim_cycles_t next = simavr_first_timer_when(avr);
+      to = next >= t ? t : (next > avr->cycle ? next : avr->cycle + 1u);
+    }
+    servo_run_until(servo, to);
+    if (stops_here(gdb)) {
+      return;
+    }
+  }
 }

@@ -8,8 +8,9 @@
  * simulated time stands still for every servo and host node until gdb continues. A stop
  * inside a world step ends the step there, the other servos running to the same cycle.
  *
- * While gdb has a breakpoint set, the servo runs one instruction a step (its PC is checked
- * after each); without one, in batches as usual. Continuing a core that gdb stopped asleep
+ * The servo runs one instruction at a time (after each, its PC is checked against gdb's
+ * breakpoints, and a watchpoint's stop is seen), slower than in batches; the others are not
+ * affected. Continuing a core that gdb stopped asleep
  * puts it back to sleep (simavr's stub would wake it); a step (stepi) executes the
  * instruction at the PC even when the core was asleep, as simavr's own gdb mode does.
  * Closing the connection (gdb's detach, kill or exit) clears the breakpoints and lets the
@@ -45,16 +46,13 @@ unsigned servo_gdb_pc(const servo_gdb_t *gdb);
 /* True while gdb holds the servo stopped. */
 bool servo_gdb_holds(const servo_t *servo);
 
-/* For servo_run_until (servo->gdb set): false while gdb holds the servo (it must not
- * advance); prepares a stepi's one instruction. */
-bool servo_gdb_may_run(servo_t *servo);
-
-/* For servo_run_until: true when the batches must be single instructions (a breakpoint is
- * set, or a stepi is under way). */
-bool servo_gdb_single_steps(const servo_t *servo);
-
-/* For servo_run_until, after each step: true when the servo must stop here (a stepi done, a
- * breakpoint at the new PC, a watchpoint hit); the stop is reported to gdb. */
-bool servo_gdb_after_step(servo_t *servo);
+/* Runs the servo toward t as servo_run_until does, for the world (world_set_debugged): nothing
+ * while gdb holds it; otherwise the core runs an instruction a call to servo_run_until (a
+ * sleeping one to its next cycle timer), and after each the PC is checked against gdb's
+ * breakpoints and a watchpoint's stop is taken: it stops there (the stop reported to gdb),
+ * before t. servo_run_until itself knows nothing of gdb (it costs the other servos nothing):
+ * it must not be called on this servo while gdb holds it, unless its clock is at or past the
+ * time asked (then it returns at once), which the world ensures. */
+void servo_gdb_run_until(servo_t *servo, sim_cycles_t t);
 
 #endif

@@ -6,7 +6,6 @@
 #include <sim_avr.h>
 
 #include "quiet_timer.h"
-#include "servo_gdb.h"
 #include "servo_profile.h"
 #include "simavr_patch.h"
 #include "simavr_patch_run.h"
@@ -44,17 +43,13 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
   if (servo->halted || avr->cycle >= t) {
     return;
   }
-  if (__builtin_expect(servo->gdb != NULL, 0) && !servo_gdb_may_run(servo)) {
-    return; /* gdb holds it */
-  }
   if (avr->state == cpu_Sleeping && !avr->interrupt_state && simavr_first_timer_when(avr) >= t) {
     servo->sleep_cycles += t - avr->cycle; /* nothing wakes it before t: the usual case */
     simavr_set_clock(avr, t);
     return;
   }
   simavr_end_batches_at_timer_changes(avr);
-  const bool single = servo->single_step || servo->probe_pc || (servo->gdb && servo_gdb_single_steps(servo));
-  const sim_cycles_t until = single ? 0 : t; /* the profile: 0 too */
+  const sim_cycles_t until = servo->single_step || servo->probe_pc ? 0 : t; /* the profile: 0 too */
   while (!servo->halted && avr->cycle < t) {
     /* simavr 1.6's own sleep would land one cycle past the next timer and could jump past t:
      * the clock is moved here, exactly to the next timer (or t). */
@@ -77,9 +72,6 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
     }
     if (servo->probe_pc) {
       servo_probe_step(servo);
-    }
-    if (__builtin_expect(servo->gdb != NULL, 0) && servo_gdb_after_step(servo)) {
-      break; /* gdb stops it here */
     }
     if (__builtin_expect(simavr_reset_requested(avr), 0)) {
       servo_reset(servo); /* the watchdog expired (simavr_patch.h) */

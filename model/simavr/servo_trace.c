@@ -313,7 +313,7 @@ bool servo_trace_attach(servo_trace_t *tr, servo_t *servo, char *err, size_t err
     avr_irq_register_notify(tr->irqs[i], irq_handlers[i], tr);
   }
   tr->observer = (uart_link_observer_t){.tx = on_tx, .rx = on_rx, .ctx = tr};
-  servo->board.link.observer = &tr->observer;
+  uart_link_observe(&servo->board.link, &tr->observer);
   return true;
 }
 
@@ -322,7 +322,7 @@ void servo_trace_detach(servo_trace_t *tr) {
     return;
   }
   avr_t *avr = tr->servo->avr;
-  tr->servo->board.link.observer = NULL;
+  uart_link_observe(&tr->servo->board.link, NULL);
   for (unsigned i = 0; i < TRACE_IRQS; i++) {
     avr_irq_unregister_notify(tr->irqs[i], irq_handlers[i], tr);
   }

@@ -216,9 +216,6 @@ static void arm_rx(uart_link_t *link) {
 
 static void node_deliver(void *ctx, const bus_rx_t *rx) {
   uart_link_t *link = ctx;
-  if (__builtin_expect(link->observer != NULL, 0) && link->observer->rx) {
-    link->observer->rx(link->observer->ctx, rx);
-  }
   if (link->rx_count == UART_LINK_RX_QUEUE) {
     link->rx_overruns++;
     return;
@@ -234,6 +231,21 @@ static void node_deliver(void *ctx, const bus_rx_t *rx) {
 }
 
 /* ---- set-up ---- */
+
+/* node_deliver with the observer told first (uart_link_observe), so that an unobserved link
+ * pays nothing for it. */
+static void node_deliver_observed(void *ctx, const bus_rx_t *rx) {
+  const uart_link_t *link = ctx;
+  if (link->observer && link->observer->rx) {
+    link->observer->rx(link->observer->ctx, rx);
+  }
+  node_deliver(ctx, rx);
+}
+
+void uart_link_observe(uart_link_t *link, const uart_link_observer_t *observer) {
+  link->observer = observer;
+  bus_set_node_deliver(link->bus, link->node, observer ? node_deliver_observed : node_deliver);
+}
 
 bool uart_link_attach(uart_link_t *link, avr_t *avr, bus_t *bus, const char *name) {
   memset(link, 0, sizeof(*link));

@@ -47,7 +47,7 @@ typedef struct {
 typedef struct {
   struct avr_t *avr;
   struct avr_uart_t *uart;
-  const uart_link_observer_t *observer; /* NULL: nobody watches (no cost) */
+  const uart_link_observer_t *observer; /* uart_link_observe(); NULL: nobody watches */
   bus_t *bus;
   int node;
   uint16_t ubrr; /* latched at the UBRR0L write */
@@ -77,6 +77,10 @@ typedef struct {
 /* Hooks USART '0' of avr and adds the node to the bus. Returns false when the MCU has no
  * USART '0' or the bus is full. */
 bool uart_link_attach(uart_link_t *link, struct avr_t *avr, bus_t *bus, const char *name);
+
+/* observer (NULL: none) watches the link's pins from now on; call between world steps. An
+ * unobserved link pays one pointer test per byte it sends, none per byte it receives. */
+void uart_link_observe(uart_link_t *link, const uart_link_observer_t *observer);
 
 /* The direction pin changed at the avr's current cycle. */
 void uart_link_set_driving(uart_link_t *link, bool driving);
