@@ -3,6 +3,7 @@
 firmware opened to avr-gdb), through the real program and a raw pyserial client
 (docs/debugging.md)."""
 import os
+import re
 import shutil
 import socket
 import subprocess
@@ -197,7 +198,11 @@ def test_while_gdb_holds_a_servo_the_whole_bus_stands_still(emulator, tmp_path):
     held = subprocess.Popen([gdb, "-batch", "-nx", "-ex", f"target remote :{port}", "-ex", "shell sleep 3", ELF],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     try:
-        time.sleep(1.0)  # attached and stopped by now
+        deadline = time.monotonic() + 30
+        line = b""
+        while not re.match(rb"0x[0-9a-f]+ in ", line):  # gdb shows where attaching stopped it
+            assert time.monotonic() < deadline and held.poll() is None, line
+            line = held.stdout.readline()
         with serial.Serial(emu.device, 1000000, timeout=0.5) as serial_port:
             assert transact(serial_port, packet(2, T.INST_PING), 6, timeout=0.5) == b""
         assert held.wait(timeout=30) == 0
