@@ -123,8 +123,6 @@ static bool debug_open(serve_debug_t *d, world_t *world, const serve_options_t *
     }
     d->trace_path = o->trace_path;
     d->trace_flush_at_us = pacing_wall_us() + TRACE_FLUSH_PERIOD_US;
-    fprintf(stderr, "ax12-emu: tracing %zu servo%s to %s\n", d->trace->count, d->trace->count == 1 ? "" : "s",
-            o->trace_path);
   }
   if (o->gdb) {
     servo_t *servo = world->servos[servo_index_of(o, o->gdb_id)];
@@ -137,6 +135,10 @@ static bool debug_open(serve_debug_t *d, world_t *world, const serve_options_t *
             "ax12-emu: servo %u (%s): gdb on 127.0.0.1:%u: avr-gdb %s -ex 'target remote :%u'; it runs until gdb "
             "attaches; while gdb holds it, the whole bus stands still\n",
             o->gdb_id, servo->name, o->gdb_port, o->elf, o->gdb_port);
+  }
+  if (d->trace) {
+    fprintf(stderr, "ax12-emu: tracing %zu servo%s to %s\n", d->trace->count, d->trace->count == 1 ? "" : "s",
+            o->trace_path);
   }
   return true;
 }
@@ -182,8 +184,9 @@ static void debug_close_gdb(serve_debug_t *d) {
   }
 }
 
-/* Writes the rest of the trace; returns false when the file could not be written. */
-static bool debug_close_trace(serve_debug_t *d, const world_t *world) {
+/* Writes the rest of the trace (one line on stderr when `report`); returns false when the
+ * file could not be written. */
+static bool debug_close_trace(serve_debug_t *d, const world_t *world, bool report) {
   if (!d->trace) {
     return true;
   }
@@ -194,6 +197,9 @@ static bool debug_close_trace(serve_debug_t *d, const world_t *world) {
   if (closed != 0) {
     fprintf(stderr, "ax12-emu: the trace %s could not be written whole\n", d->trace_path);
     return false;
+  }
+  if (!report) {
+    return true;
   }
   fprintf(stderr, "ax12-emu: trace %s: %zu servo%s, %.3f s simulated, %llu value changes\n", d->trace_path, servos,
           servos == 1 ? "" : "s", sim_cycles_to_us(world->now) / 1e6, changes);
@@ -281,7 +287,7 @@ int emu_serve(const serve_options_t *o) {
   if (!debug_open(&debug, world, o, err, sizeof(err))) {
     fprintf(stderr, "ax12-emu: %s\n", err);
     debug_close_gdb(&debug);
-    (void)debug_close_trace(&debug, world);
+    (void)debug_close_trace(&debug, world, false);
     pty_bridge_close(&pty);
     release_locks(locks, lock_count);
     world_destroy(world);
@@ -375,7 +381,7 @@ int emu_serve(const serve_options_t *o) {
 
   debug_close_gdb(&debug);
   const int failures = world_settle_and_persist(world, sim_ms(SHUTDOWN_SETTLE_MS));
-  const bool traced = debug_close_trace(&debug, world);
+  const bool traced = debug_close_trace(&debug, world, true);
   if (failures) {
     for (size_t i = 0; i < world->servo_count; i++) {
       if (world->servos[i]->persist_errors) {
