@@ -244,3 +244,20 @@ def test_a_gdb_port_in_use_is_refused_with_one_line(tmp_path):
     assert out.returncode == 1
     assert out.stdout == ""
     assert str(port) in out.stderr and len(out.stderr.splitlines()) == 1, out.stderr
+
+
+def test_sigterm_while_gdb_holds_the_bus_stops_cleanly(emulator, tmp_path):
+    gdb = avr_gdb()
+    port = free_port()
+    emu = emulator("--fast", "--ids", "1,2", "--state-dir", str(tmp_path / "state"), "--gdb", f"2:{port}")
+    held = subprocess.Popen([gdb, "-batch", "-nx", "-ex", f"target remote :{port}", "-ex", "shell sleep 5", ELF],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        line = held.stdout.readline()
+        assert re.match(rb"0x[0-9a-f]+ in ", line), line
+        assert emu.stop() == 0
+        assert "gdb holds servo-2" in emu.proc.stderr.read().decode()
+    finally:
+        held.kill()
+        held.wait()
+    assert (tmp_path / "state" / "servo-2.eeprom").stat().st_size == 512
