@@ -259,6 +259,32 @@ static void tick_running(struct avr_irq_t *irq, uint32_t value, void *param) {
   record(tr, tr->servo->avr->cycle, SERVO_TRACE_TICK, value ? 1u : 0u);
 }
 
+/* The MCU was reset (board.h on_reset, after the ports were zeroed): its registers are at
+ * their reset values, which simavr set without the write hooks. */
+static void mcu_reset(void *ctx) {
+  servo_trace_t *tr = ctx;
+  if (tr->chained_on_reset) {
+    tr->chained_on_reset(tr->chained_on_reset_ctx);
+  }
+  const sim_cycles_t now = tr->servo->avr->cycle;
+  servo_trace_advance(tr, now);
+  size_t kept = 0; /* the USART's byte in flight is cut: its later bits never come */
+  for (size_t e = 0; e < tr->count; e++) {
+    if (!(tr->events[e].signal == SERVO_TRACE_TX && tr->events[e].at > now)) {
+      tr->events[kept++] = tr->events[e];
+    }
+  }
+  tr->count = kept;
+  record(tr, now, SERVO_TRACE_TX, 1);
+  record(tr, now, SERVO_TRACE_TICK, 0);
+  servo_trace_pwm_t *p = &tr->pwm;
+  *p = (servo_trace_pwm_t){.done_until = now, .match_at = {SIM_CYCLES_NEVER, SIM_CYCLES_NEVER}};
+  record_level(tr, now, SERVO_TRACE_OCR0A, 0);
+  record_level(tr, now, SERVO_TRACE_OCR0B, 0);
+  tr->port_d = tr->ddr_d = tr->port_b = tr->ddr_b = 0;
+  pins_changed(tr);
+}
+
 static const avr_irq_notify_t irq_handlers[TRACE_IRQS] = {
     [IRQ_PORT_D] = port_d_written, [IRQ_DDR_D] = ddr_d_written, [IRQ_PORT_B] = port_b_written,
     [IRQ_DDR_B] = ddr_b_written,   [IRQ_TICK] = tick_running,
@@ -312,6 +338,10 @@ bool servo_trace_attach(servo_trace_t *tr, servo_t *servo, char *err, size_t err
   for (unsigned i = 0; i < TRACE_IRQS; i++) {
     avr_irq_register_notify(tr->irqs[i], irq_handlers[i], tr);
   }
+  tr->chained_on_reset = servo->board.on_reset;
+  tr->chained_on_reset_ctx = servo->board.on_reset_ctx;
+  servo->board.on_reset = mcu_reset;
+  servo->board.on_reset_ctx = tr;
   tr->observer = (uart_link_observer_t){.tx = on_tx, .rx = on_rx, .ctx = tr};
   uart_link_observe(&servo->board.link, &tr->observer);
   return true;
@@ -323,6 +353,8 @@ void servo_trace_detach(servo_trace_t *tr) {
   }
   avr_t *avr = tr->servo->avr;
   uart_link_observe(&tr->servo->board.link, NULL);
+  tr->servo->board.on_reset = tr->chained_on_reset;
+  tr->servo->board.on_reset_ctx = tr->chained_on_reset_ctx;
   for (unsigned i = 0; i < TRACE_IRQS; i++) {
     avr_irq_unregister_notify(tr->irqs[i], irq_handlers[i], tr);
   }

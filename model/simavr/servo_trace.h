@@ -20,6 +20,9 @@
  *   tick    1 while the control tick's interrupt (Timer1 COMPB, every 1 ms) runs, from its
  *           vector to its RETI (simavr's interrupt "running" IRQ).
  *
+ * An MCU reset (the watchdog) is followed: Timer0 stopped, the USART's byte in flight cut
+ * (tx idle from then), the tick's interrupt ended.
+ *
  * Event times come from the servo's clock and are exact. tx and the PWM edges are known
  * ahead of time, rx once the bus finalizes a byte (at its end): the buffer is not in time
  * order, world_trace sorts what it drains. Every probe writes only this servo's buffer, so
@@ -90,6 +93,8 @@ typedef struct servo_trace {
   io_write_hook_t timer_replaced[5]; /* TCCR0A, TCCR0B, TCNT0, OCR0A, OCR0B */
   uint16_t timer_addr[5];
   struct avr_irq_t *irqs[5]; /* the IRQs notified (PORTD, DDRD, PORTB, DDRB, the tick) */
+  void (*chained_on_reset)(void *ctx); /* the board's reset callback this one wraps */
+  void *chained_on_reset_ctx;
 } servo_trace_t;
 
 /* Starts probing servo (call once, before it runs under trace; it stays probed until
