@@ -108,6 +108,18 @@ def test_the_trace_shows_the_bus_the_pwm_and_the_tick_of_each_servo(emulator, tm
         gaps += [b - a for a, b in zip(rises, rises[1:]) if b - a < 2 * period]
     # (A pin connected to the timer mid-period rises there once: a shorter gap.)
     assert gaps and gaps.count(period) >= 0.9 * len(gaps), sorted(set(gaps))[:10]
+    # In steady periods (a rise 256 cycles after the previous one and before the next), a pin is
+    # high OCR0x + 1 timer clocks (fast PWM, non-inverting) for a duty written to its channel.
+    steady_widths = 0
+    for pin, ocr in (("pwm_a", "ocr0a"), ("pwm_b", "ocr0b")):
+        duties = {int(v, 2) for _, v in changes(vcd, "servo_1." + ocr)}
+        spans = highs(vcd, "servo_1." + pin)
+        rises = [a for a, _ in spans]
+        widths = {(b - a) // UNITS_PER_CYCLE for i, (a, b) in enumerate(spans[1:-1], 1)
+                  if a - rises[i - 1] == period and rises[i + 1] - a == period}
+        assert widths <= {d + 1 for d in duties}, (pin, sorted(widths - {d + 1 for d in duties}))
+        steady_widths += len(widths)
+    assert steady_widths > 0
     assert changes(vcd, "servo_1.ocr0a") or changes(vcd, "servo_1.ocr0b")
 
     # The control tick: 1000 per simulated second, each its ISR's ~50 cycles.
