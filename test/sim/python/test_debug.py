@@ -33,6 +33,12 @@ def transact(port, request, reply_len, timeout=1.0):
     return port.read(reply_len)
 
 
+def read_byte(port, ident, addr):
+    reply = transact(port, packet(ident, T.INST_READ, [addr, 1]), 7)
+    assert len(reply) == 7 and reply[2] == ident and reply[4] == 0, reply.hex()
+    return reply[5]
+
+
 def changes(vcd, name, start=0, end=None):
     """(time, value) of the signal's changes in [start, end), the initial dump left out."""
     tv = vcd[name].tv[1:]
@@ -62,7 +68,11 @@ def test_the_trace_shows_the_bus_the_pwm_and_the_tick_of_each_servo(emulator, tm
         assert transact(port, packet(1, T.INST_PING), 6) == status_packet(1, 0)
         assert transact(port, packet(1, T.INST_WRITE, [T.TORQUE_ENABLE, 1]), 6) == status_packet(1, 0)
         assert transact(port, packet(1, T.INST_WRITE, [T.GOAL_POSITION, 0x00, 0x01]), 6) == status_packet(1, 0)
-        time.sleep(0.3)
+        deadline = time.monotonic() + 30
+        while read_byte(port, 1, T.MOVING) != 0:  # the whole move, however fast the host
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+        time.sleep(0.3)  # and some more simulated time, for the tick's rate
     assert emu.stop() == 0
     assert "trace " + str(trace) in emu.proc.stderr.read().decode()
     text = trace.read_text()
@@ -83,7 +93,7 @@ def test_the_trace_shows_the_bus_the_pwm_and_the_tick_of_each_servo(emulator, tm
 
     # The replies: servo 1's dir windows hold every tx edge of servo 1; servo 2 never drives.
     windows = highs(vcd, "servo_1.dir")
-    assert len(windows) == 3, windows
+    assert len(windows) >= 4, windows  # PING, 2 WRITEs, the READs of Moving
     assert windows[0][0] > ping_end
     tx = changes(vcd, "servo_1.tx")
     assert len(tx) >= 10
@@ -124,10 +134,10 @@ def test_the_trace_shows_the_bus_the_pwm_and_the_tick_of_each_servo(emulator, tm
 
     # The control tick: 1000 per simulated second, each its ISR's ~50 cycles.
     seconds = end / UNITS_PER_S
-    assert seconds > 1.0
+    assert seconds > 0.25
     for servo in ("servo_1", "servo_2"):
         ticks = highs(vcd, servo + ".tick")
-        assert abs(len(ticks) / seconds - 1000) < 1000 * 0.01 + 2, (servo, len(ticks), seconds)
+        assert abs(len(ticks) - 1000 * seconds) < 10 * seconds + 3, (servo, len(ticks), seconds)
         widths = {(b - a) // UNITS_PER_CYCLE for a, b in ticks}
         assert min(widths) >= 40 and max(widths) <= 1000, widths  # (another interrupt may nest)
 
@@ -149,12 +159,20 @@ def test_a_trace_killed_mid_run_reads_up_to_its_last_flush(emulator, tmp_path):
     old), a valid VCD of what came before."""
     trace = tmp_path / "killed.vcd"
     emu = emulator("--fast", "--ids", "1,2", "--state-dir", str(tmp_path / "state"), "--trace", str(trace))
-    time.sleep(0.5)
+    deadline = time.monotonic() + 30
+    while trace.stat().st_size < 20000:  # some flushes (the machine's speed varies)
+        assert time.monotonic() < deadline
+        time.sleep(0.05)
     emu.kill()
     text = trace.read_text()
     assert text.endswith("\n")
     vcd = vcdvcd.VCDVCD(str(trace))
-    assert len(highs(vcd, "servo_1.tick")) > 100
+    assert len(highs(vcd, "servo_1.tick")) > 100  # 20 KB: about 250 ticks of each servo
+
+
+# gdb's line where attaching stopped the servo: "0x00001284 in main () at ..." or, at the start
+# of a source line, "main () at ...".
+ATTACHED = re.compile(rb"(0x[0-9a-f]+ in )?[A-Za-z_][\w.]* \(")
 
 
 def free_port():
@@ -212,7 +230,7 @@ def test_while_gdb_holds_a_servo_the_whole_bus_stands_still(emulator, tmp_path):
     try:
         deadline = time.monotonic() + 30
         line = b""
-        while not re.match(rb"0x[0-9a-f]+ in ", line):  # gdb shows where attaching stopped it
+        while not ATTACHED.match(line):
             assert time.monotonic() < deadline and held.poll() is None, line
             line = held.stdout.readline()
         with serial.Serial(emu.device, 1000000, timeout=0.5) as serial_port:
@@ -266,7 +284,7 @@ def test_sigterm_while_gdb_holds_the_bus_stops_cleanly(emulator, tmp_path):
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     try:
         line = held.stdout.readline()
-        assert re.match(rb"0x[0-9a-f]+ in ", line), line
+        assert ATTACHED.match(line), line
         assert emu.stop() == 0
         assert "gdb holds servo-2" in emu.proc.stderr.read().decode()
     finally:
