@@ -3,18 +3,18 @@
  * port of 127.0.0.1, served from the world's loop (simavr_patch.h "the gdb stub").
  *
  * The servo runs until gdb stops it: when gdb attaches, at a breakpoint or a watchpoint, on
- * Ctrl-C and after each step. While gdb holds it (servo_gdb_holds), servo_run_until() does
- * not advance it, and the world (world_set_debugged) advances nobody: the bus is lockstep, so
- * simulated time stands still for every servo and host node until gdb continues. A stop
- * inside a world step ends the step there, the other servos running to the same cycle.
+ * Ctrl-C and after each step. While gdb holds it (servo_gdb_holds), servo_gdb_run_until()
+ * does not advance it, and the world (world_set_debugged) advances nobody: the bus is
+ * lockstep, so simulated time stands still for every servo and host node until gdb
+ * continues. A stop inside a world step ends the step there, the other servos running to the
+ * same cycle.
  *
  * The servo runs one instruction at a time (after each, its PC is checked against gdb's
  * breakpoints, and a watchpoint's stop is seen), slower than in batches; the others are not
- * affected. Continuing a core that gdb stopped asleep
- * puts it back to sleep (simavr's stub would wake it); a step (stepi) executes the
- * instruction at the PC even when the core was asleep, as simavr's own gdb mode does.
- * Closing the connection (gdb's detach, kill or exit) clears the breakpoints and lets the
- * servo run on. */
+ * affected. Continuing a core that gdb stopped asleep puts it back to sleep (simavr's stub
+ * would wake it); a step (stepi) executes the instruction at the PC even when the core was
+ * asleep, as simavr's own gdb mode does. Closing the connection (gdb's detach, kill or exit)
+ * clears the breakpoints and lets the servo run on. */
 #ifndef SIM_SERVO_GDB_H
 #define SIM_SERVO_GDB_H
 
@@ -22,6 +22,7 @@
 #include <stddef.h>
 
 #include "servo.h"
+#include "sim_time.h"
 
 typedef struct servo_gdb {
   servo_t *servo;
