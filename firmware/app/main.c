@@ -51,7 +51,9 @@ static const DXL_FLASH uint8_t adc_sequence[] = {ADC_CH_POT, ADC_CH_SUPPLY, ADC_
 #define ADC_SEQUENCE_LENGTH (sizeof adc_sequence / sizeof adc_sequence[0])
 
 static dxl_finder_t finder;
-static dxl_servo_t servo;
+/* The servo's state, its control table first (servo.table[CT_SIZE]); external so that it
+ * keeps its name through LTO: a debugger reads it as `servo` (docs/debugging.md). */
+dxl_servo_t servo;
 /* The reply being prepared, armed or sent; while the link is idle it holds the ready reply
  * to a PING (refresh_ping_reply), whose first bytes FF FF ID also start a streamed reply. */
 static dxl_response_t response;

@@ -137,6 +137,26 @@ sim_cycles_t bus_next_finalize(const bus_t *bus) {
   return next;
 }
 
+void bus_set_node_deliver(bus_t *bus, int node, void (*deliver)(void *ctx, const bus_rx_t *rx)) {
+  if (node >= 0 && (size_t)node < bus->node_count) {
+    bus->nodes[node].ops.deliver = deliver;
+  }
+}
+
+sim_cycles_t bus_first_pending_start(const bus_t *bus) {
+  sim_cycles_t first = SIM_CYCLES_NEVER;
+  if (!bus->pending_total) {
+    return first;
+  }
+  for (size_t i = 0; i < bus->node_count; i++) {
+    const bus_node_t *n = &bus->nodes[i];
+    if (n->pending_count && pending_at_const(n, 0)->start < first) {
+      first = pending_at_const(n, 0)->start;
+    }
+  }
+  return first;
+}
+
 void bus_baud_changed(bus_t *bus) { __atomic_store_n(&bus->lookahead, 0u, __ATOMIC_RELAXED); }
 
 sim_cycles_t bus_lookahead(bus_t *bus) {

@@ -137,6 +137,9 @@ void bus_free(bus_t *bus);
 /* Adds a node; returns its index, or -1 when the bus is full. */
 int bus_add_node(bus_t *bus, const char *name, const bus_node_ops_t *ops);
 
+/* Replaces the deliver callback of node (its ctx stays): call between world steps. */
+void bus_set_node_deliver(bus_t *bus, int node, void (*deliver)(void *ctx, const bus_rx_t *rx));
+
 /* Noise on the wire from now on: every bit of every byte finalized later flips with
  * probability bit_error_rate, from a PRNG seeded with seed (bus_noise.h). Rate 0 (the state
  * after bus_init) is no noise and no PRNG draws. Returns false, leaving the noise off, for a
@@ -158,6 +161,10 @@ void bus_release(bus_t *bus, int node, sim_cycles_t at);
 /* The earliest time at which a pending byte becomes final (end - margin), or
  * SIM_CYCLES_NEVER. */
 sim_cycles_t bus_next_finalize(const bus_t *bus);
+
+/* The earliest start among the bytes not yet finalized, or SIM_CYCLES_NEVER: no delivery
+ * made later concerns a moment before it (a trace commits what lies before it). */
+sim_cycles_t bus_first_pending_start(const bus_t *bus);
 
 /* A node's bit time changed (it must call this whenever its cycles_per_bit() would return
  * something new). */

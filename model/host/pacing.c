@@ -17,6 +17,11 @@ void pacing_start(pacing_t *pacing, bool realtime, sim_cycles_t sim_now) {
   pacing->sim0 = pacing->started_sim = sim_now;
 }
 
+void pacing_resume(pacing_t *pacing, sim_cycles_t sim_now) {
+  pacing->wall0_us = pacing_wall_us();
+  pacing->sim0 = sim_now;
+}
+
 double pacing_ahead_us(const pacing_t *pacing, sim_cycles_t sim_now) {
   const double sim_us = sim_cycles_to_us(sim_now - pacing->sim0);
   return sim_us - (pacing_wall_us() - pacing->wall0_us);

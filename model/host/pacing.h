@@ -32,6 +32,10 @@ double pacing_wall_us(void);
 
 void pacing_start(pacing_t *pacing, bool realtime, sim_cycles_t sim_now);
 
+/* After a pause in which simulated time stood still (a debugger held the world): the
+ * reference moves to now, so the pause is neither lag nor caught up. */
+void pacing_resume(pacing_t *pacing, sim_cycles_t sim_now);
+
 /* Simulated minus wall time since the reference, in microseconds (positive: ahead). */
 double pacing_ahead_us(const pacing_t *pacing, sim_cycles_t sim_now);
 

@@ -6,7 +6,9 @@
  *   servo_run.h      running the core: batches, sleep, the earliest wake
  *   servo_plant.h    the plant (model/plant) behind the board's pins
  *   servo_profile.h  the busy-time probe and the cycle profile by instruction
- *   servo_stack.h    the stack depth from the firmware's stack paint */
+ *   servo_stack.h    the stack depth from the firmware's stack paint
+ *   servo_gdb.h      the firmware opened to avr-gdb
+ *   servo_trace.h    the probes of a waveform trace (world_trace.h) */
 #ifndef SIM_SERVO_H
 #define SIM_SERVO_H
 
@@ -23,6 +25,7 @@
 
 struct avr_t;
 struct elf_firmware_t;
+struct servo_gdb;
 
 typedef struct {
   const char *name;                       /* for messages and the bus, e.g. "servo-1" */
@@ -93,6 +96,8 @@ typedef struct servo {
    * add up to the elapsed cycles. Servos of one firmware may share the array on one thread. */
   uint64_t *pc_cycles;
   size_t pc_cycles_words;
+  /* Opened to avr-gdb (servo_gdb.h); NULL otherwise. */
+  struct servo_gdb *gdb;
 } servo_t;
 
 /* Loads the firmware into a new MCU, its EEPROM from the state file (seeded when missing:

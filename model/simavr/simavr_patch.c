@@ -1,12 +1,21 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 #include "simavr_patch_run.h"
 
+#include <arpa/inet.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <netinet/in.h>
 #include <stddef.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/select.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <avr_extint.h>
 #include <avr_uart.h>
+#include <sim_gdb.h>
 #include <sim_io.h>
 
 /* ---- I/O register handlers ---- */
@@ -125,4 +134,155 @@ void simavr_extint_poll_off(avr_t *avr) {
 void simavr_uart_rx_limiter_reset(struct avr_uart_t *uart) {
   uart->rx_cnt = 0;
   uart->rxc_raise_time = 0;
+}
+
+/* ---- the gdb stub ---- */
+
+/* simavr 1.6's avr_gdb_t and its breakpoint lists (sim_gdb.c, private there). */
+#define GDB_WATCH_LIMIT 32
+typedef struct {
+  uint32_t len;
+  struct {
+    uint32_t addr, size, kind;
+  } points[GDB_WATCH_LIMIT];
+} gdb_watchpoints_t;
+
+typedef struct {
+  avr_t *avr;
+  int listen; /* listening socket */
+  int s;      /* the connection, -1 when none */
+  gdb_watchpoints_t breakpoints;
+  gdb_watchpoints_t watchpoints;
+} gdb_stub_t;
+
+static gdb_stub_t *stub_of(const avr_t *avr) { return (gdb_stub_t *)avr->gdb; }
+
+/* Runs fn(avr, arg) with stdout on file descriptor `to` (the stub prints on stdout). */
+static int with_stdout_on(int to, int (*fn)(avr_t *avr, int arg), avr_t *avr, int arg) {
+  fflush(stdout);
+  const int saved = dup(STDOUT_FILENO);
+  if (saved >= 0 && to >= 0) {
+    (void)dup2(to, STDOUT_FILENO);
+  }
+  const int r = fn(avr, arg);
+  fflush(stdout);
+  if (saved >= 0) {
+    (void)dup2(saved, STDOUT_FILENO);
+    close(saved);
+  }
+  return r;
+}
+
+static int gdb_init(avr_t *avr, int unused) {
+  (void)unused;
+  return avr_gdb_init(avr);
+}
+
+static int gdb_process(avr_t *avr, int unused) {
+  (void)unused;
+  return avr_gdb_processor(avr, 0);
+}
+
+static int loopback_listener(unsigned port, char *err, size_t err_len) {
+  const int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) {
+    snprintf(err, err_len, "gdb: socket: %s", strerror(errno));
+    return -1;
+  }
+  const int on = 1;
+  (void)setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &on, sizeof(on));
+  struct sockaddr_in address = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (bind(fd, (struct sockaddr *)&address, sizeof(address)) != 0 || listen(fd, 1) != 0) {
+    snprintf(err, err_len, "gdb: cannot listen on 127.0.0.1:%u: %s", port, strerror(errno));
+    close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+bool simavr_gdb_open(avr_t *avr, unsigned port, char *err, size_t err_len) {
+  const int listener = loopback_listener(port, err, err_len);
+  if (listener < 0) {
+    return false;
+  }
+  avr->gdb_port = 0; /* the stub's own socket: any free port, replaced below */
+  /* Its line names the port it is about to lose: to /dev/null. */
+  const int null_fd = open("/dev/null", O_WRONLY | O_CLOEXEC);
+  const int started = with_stdout_on(null_fd, gdb_init, avr, 0);
+  if (null_fd >= 0) {
+    close(null_fd);
+  }
+  if (started != 0 || !avr->gdb) {
+    snprintf(err, err_len, "gdb: simavr's stub did not start");
+    close(listener);
+    return false;
+  }
+  gdb_stub_t *g = stub_of(avr);
+  if (g->avr != avr || g->listen < 0 || g->s != -1 || g->breakpoints.len != 0) {
+    snprintf(err, err_len, "gdb: simavr's stub is not laid out as in simavr 1.6");
+    avr_deinit_gdb(avr);
+    simavr_install_run_loop(avr);
+    close(listener);
+    return false;
+  }
+  close(g->listen);
+  g->listen = listener;
+  avr->gdb_port = (int)port;
+  simavr_install_run_loop(avr);
+  return true;
+}
+
+void simavr_gdb_close(avr_t *avr) {
+  if (avr->gdb) {
+    const int state = avr->state;
+    avr_deinit_gdb(avr);
+    avr->state = state;
+    simavr_install_run_loop(avr);
+  }
+}
+
+bool simavr_gdb_serve(avr_t *avr, unsigned wait_us) {
+  gdb_stub_t *g = stub_of(avr);
+  if (!g) {
+    return false;
+  }
+  bool due = avr->state == cpu_StepDone;
+  if (!due) {
+    fd_set read_set;
+    FD_ZERO(&read_set);
+    const int fd = g->s != -1 ? g->s : g->listen;
+    FD_SET(fd, &read_set);
+    struct timeval timeout = {.tv_sec = wait_us / 1000000u, .tv_usec = wait_us % 1000000u};
+    due = select(fd + 1, &read_set, NULL, NULL, &timeout) > 0;
+  }
+  if (due) {
+    (void)with_stdout_on(STDERR_FILENO, gdb_process, avr, 0);
+  }
+  return due;
+}
+
+void simavr_gdb_report_stop(avr_t *avr) {
+  if (avr->gdb) {
+    avr->state = cpu_StepDone; /* avr_gdb_processor reports it and stops the core */
+    (void)with_stdout_on(STDERR_FILENO, gdb_process, avr, 0);
+  }
+}
+
+bool simavr_gdb_breakpoint_at(const avr_t *avr, uint32_t pc) {
+  const gdb_stub_t *g = stub_of(avr);
+  if (!g) {
+    return false;
+  }
+  for (uint32_t i = 0; i < g->breakpoints.len && i < GDB_WATCH_LIMIT; i++) {
+    if (g->breakpoints.points[i].addr == pc) {
+      return true;
+    }
+  }
+  return false;
+}
+
+bool simavr_gdb_has_breakpoints(const avr_t *avr) {
+  const gdb_stub_t *g = stub_of(avr);
+  return g && g->breakpoints.len != 0;
 }

@@ -10,6 +10,7 @@
 #define SIM_SIMAVR_PATCH_H
 
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #include "sim_time.h"
@@ -84,5 +85,33 @@ void simavr_extint_poll_off(struct avr_t *avr);
  * clears RXC early when the firmware reads faster than its own byte pacing; a byte placed in
  * the FIFO by the bus model resets that limiter, so RXC stays raised while bytes wait. */
 void simavr_uart_rx_limiter_reset(struct avr_uart_t *uart);
+
+/* ---- the gdb stub (sim_gdb.c) ----
+ * simavr 1.6's stub (avr_gdb_init, avr_gdb_processor) is made for its own run loop, which
+ * the world does not use: the stub's listening socket, its connection and its breakpoint
+ * list are private to sim_gdb.c, so the world's loop reads them here (the struct's 1.6
+ * layout, checked after init). Also: the stub listens on every interface (here: replaced
+ * by a socket on 127.0.0.1 only), prints on stdout (here: its calls run with stdout sent to
+ * stderr, since the emulator's stdout carries only its ready line) and installs its own
+ * run and sleep callbacks (here: simavr_install_run_loop's are put back). */
+
+/* Opens the stub on 127.0.0.1:port. False with err set (port in use...). */
+bool simavr_gdb_open(struct avr_t *avr, unsigned port, char *err, size_t err_len);
+
+/* Closes the stub (and a connection); the core's state is left as it is. */
+void simavr_gdb_close(struct avr_t *avr);
+
+/* Waits up to wait_us for gdb (a connection, a request, Ctrl-C) and serves what came, as
+ * avr_gdb_processor does: a stop to report (cpu_StepDone) is sent first. Breakpoints are the
+ * caller's to find (simavr_gdb_breakpoint_at after each instruction, then
+ * simavr_gdb_report_stop). Returns true when something was served. */
+bool simavr_gdb_serve(struct avr_t *avr, unsigned wait_us);
+
+/* Reports a stop to gdb at once (a breakpoint was reached: the core stops there). */
+void simavr_gdb_report_stop(struct avr_t *avr);
+
+/* True when gdb has a breakpoint at byte address pc / any breakpoint. */
+bool simavr_gdb_breakpoint_at(const struct avr_t *avr, uint32_t pc);
+bool simavr_gdb_has_breakpoints(const struct avr_t *avr);
 
 #endif

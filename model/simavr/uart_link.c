@@ -49,6 +49,9 @@ static void clear_flag(avr_t *avr, avr_int_vector_t *vector) {
 
 static void start_byte(uart_link_t *link, uint8_t value, sim_cycles_t at) {
   link->shift_busy = true;
+  if (__builtin_expect(link->observer != NULL, 0) && link->observer->tx) {
+    link->observer->tx(link->observer->ctx, value, at, link->cycles_per_bit);
+  }
   if (link->driving) {
     link->shift_end = bus_send(link->bus, link->node, value, at);
     link->tx_bytes++;
@@ -228,6 +231,21 @@ static void node_deliver(void *ctx, const bus_rx_t *rx) {
 }
 
 /* ---- set-up ---- */
+
+/* node_deliver with the observer told first (uart_link_observe), so that an unobserved link
+ * pays nothing for it. */
+static void node_deliver_observed(void *ctx, const bus_rx_t *rx) {
+  const uart_link_t *link = ctx;
+  if (link->observer && link->observer->rx) {
+    link->observer->rx(link->observer->ctx, rx);
+  }
+  node_deliver(ctx, rx);
+}
+
+void uart_link_observe(uart_link_t *link, const uart_link_observer_t *observer) {
+  link->observer = observer;
+  bus_set_node_deliver(link->bus, link->node, observer ? node_deliver_observed : node_deliver);
+}
 
 bool uart_link_attach(uart_link_t *link, avr_t *avr, bus_t *bus, const char *name) {
   memset(link, 0, sizeof(*link));

@@ -33,9 +33,21 @@ struct avr_uart_t;
 #define UART_LINK_RX_QUEUE 256u
 #define UART_LINK_RX_FIFO_DEPTH 3u
 
+/* Someone watching the USART's pins (a trace, servo_trace.h); NULL members are not called.
+ * tx: a byte leaves the shift register on TXD, its start bit at `start`, at cycles_per_bit
+ * (whether or not the transceiver drives the bus). rx: a byte reaches the transceiver's
+ * receiver as the bus hands it to this node (ahead of time, at its finalization: see bus.h),
+ * whether or not the USART then takes it. */
+typedef struct {
+  void (*tx)(void *ctx, uint8_t value, sim_cycles_t start, double cycles_per_bit);
+  void (*rx)(void *ctx, const bus_rx_t *rx);
+  void *ctx;
+} uart_link_observer_t;
+
 typedef struct {
   struct avr_t *avr;
   struct avr_uart_t *uart;
+  const uart_link_observer_t *observer; /* uart_link_observe(); NULL: nobody watches */
   bus_t *bus;
   int node;
   uint16_t ubrr; /* latched at the UBRR0L write */
@@ -65,6 +77,10 @@ typedef struct {
 /* Hooks USART '0' of avr and adds the node to the bus. Returns false when the MCU has no
  * USART '0' or the bus is full. */
 bool uart_link_attach(uart_link_t *link, struct avr_t *avr, bus_t *bus, const char *name);
+
+/* observer (NULL: none) watches the link's pins from now on; call between world steps. An
+ * unobserved link pays one pointer test per byte it sends, none per byte it receives. */
+void uart_link_observe(uart_link_t *link, const uart_link_observer_t *observer);
 
 /* The direction pin changed at the avr's current cycle. */
 void uart_link_set_driving(uart_link_t *link, bool driving);

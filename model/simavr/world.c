@@ -9,6 +9,7 @@
 #include <sim_elf.h>
 
 #include "servo_eeprom.h"
+#include "servo_gdb.h"
 #include "servo_plant.h"
 #include "servo_run.h"
 #include "sim_log.h"
@@ -149,40 +150,75 @@ static void step_plants(world_t *world, sim_cycles_t now) {
   world->plant_due = due;
 }
 
-void world_run_until(world_t *world, sim_cycles_t t) {
+void world_set_debugged(world_t *world, servo_t *servo) {
+  (void)world_set_threads(world, 1);
+  world->debugged = servo;
+}
+
+bool world_held(const world_t *world) { return world->debugged && servo_gdb_holds(world->debugged); }
+
+/* The debugged servo runs first (servo_gdb_run_until): when gdb stops it before the step's
+ * end, the step ends where it stopped, so the others do not run past it, and its own
+ * servo_run_until in world_run_servos returns at once (its clock is at the horizon). */
+static sim_cycles_t run_debugged(world_t *world, sim_cycles_t horizon) {
+  servo_t *servo = world->debugged;
+  servo_gdb_run_until(servo, horizon);
+  if (!servo_gdb_holds(servo)) {
+    return horizon;
+  }
+  const sim_cycles_t at = servo->avr->cycle; /* >= now: a clock never goes back */
+  return at < horizon ? at : horizon;
+}
+
+/* One step of world_run_until toward t. `debugged` (a constant in each caller, so the world
+ * without a debugged servo pays nothing for it): the debugged servo runs first. */
+static inline __attribute__((always_inline)) void step(world_t *world, sim_cycles_t t, bool debugged) {
   bus_t *bus = &world->bus;
+  bus_finalize(bus, world->now);
+  sim_cycles_t horizon = t;
+  const sim_cycles_t wake = earliest_wake(world);
+  if (wake != SIM_CYCLES_NEVER) {
+    const sim_cycles_t lookahead = wake + bus_lookahead(bus);
+    if (lookahead < horizon) {
+      horizon = lookahead;
+    }
+  }
+  const sim_cycles_t next_final = bus_next_finalize(bus);
+  if (next_final < horizon) {
+    horizon = next_final;
+  }
+  if (world->plant_due > world->now && world->plant_due < horizon) {
+    horizon = world->plant_due;
+  }
+  if (debugged) {
+    horizon = run_debugged(world, horizon);
+  }
+  world_run_servos(world, horizon);
+  world->now = horizon;
+  bus_finalize(bus, horizon);
+  world->steps++;
+  if (__atomic_load_n(&world->persist_due, __ATOMIC_RELAXED)) {
+    world->persist_due = world_poll_persist(world) > 0; /* a failed write is retried */
+  }
+  step_plants(world, horizon);
+  if (world->after_step) {
+    world->after_step(world, world->after_step_ctx);
+  }
+}
+
+void world_run_until(world_t *world, sim_cycles_t t) {
   if (!world->threads_chosen) {
     world_choose_threads(world);
   }
   __atomic_store_n(&world->worker_park, false, __ATOMIC_RELAXED);
+  if (__builtin_expect(world->debugged != NULL, 0)) {
+    while (world->now < t && !world_held(world)) {
+      step(world, t, true);
+    }
+    return;
+  }
   while (world->now < t) {
-    bus_finalize(bus, world->now);
-    sim_cycles_t horizon = t;
-    const sim_cycles_t wake = earliest_wake(world);
-    if (wake != SIM_CYCLES_NEVER) {
-      const sim_cycles_t lookahead = wake + bus_lookahead(bus);
-      if (lookahead < horizon) {
-        horizon = lookahead;
-      }
-    }
-    const sim_cycles_t next_final = bus_next_finalize(bus);
-    if (next_final < horizon) {
-      horizon = next_final;
-    }
-    if (world->plant_due > world->now && world->plant_due < horizon) {
-      horizon = world->plant_due;
-    }
-    world_run_servos(world, horizon);
-    world->now = horizon;
-    bus_finalize(bus, horizon);
-    world->steps++;
-    if (__atomic_load_n(&world->persist_due, __ATOMIC_RELAXED)) {
-      world->persist_due = world_poll_persist(world) > 0; /* a failed write is retried */
-    }
-    step_plants(world, horizon);
-    if (world->after_step) {
-      world->after_step(world, world->after_step_ctx);
-    }
+    step(world, t, false);
   }
 }
 
@@ -197,7 +233,7 @@ bool world_eeprom_unsettled(const world_t *world) {
 
 int world_settle_and_persist(world_t *world, sim_cycles_t max_cycles) {
   const sim_cycles_t limit = world->now + max_cycles;
-  while (world->now < limit && world_eeprom_unsettled(world)) {
+  while (world->now < limit && world_eeprom_unsettled(world) && !world_held(world)) {
     world_run_until(world, world->now + sim_us(100));
   }
   int failures = 0;

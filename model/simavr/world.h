@@ -51,6 +51,8 @@ typedef struct world {
    * model: read board_pwm_duty(), step the plant, feed board_set_pot_deg() and friends). */
   void (*after_step)(struct world *world, void *ctx);
   void *after_step_ctx;
+  /* The servo opened to gdb (world_set_debugged), NULL when none. */
+  servo_t *debugged;
 } world_t;
 
 /* Reads the ELF once. NULL with err set when it cannot be read. */
@@ -78,8 +80,18 @@ unsigned world_set_threads(world_t *world, unsigned threads);
  * stops spinning and sleeps until the next world_run_until(). */
 void world_park(world_t *world);
 
-/* Advances every node to time t (>= now). */
+/* Advances every node to time t (>= now), or less while a servo is debugged: see
+ * world_set_debugged. */
 void world_run_until(world_t *world, sim_cycles_t t);
+
+/* servo (one of the world's, opened to gdb: servo_gdb.h) is debugged: while gdb holds it, the
+ * world stands still (world_run_until returns at once); when gdb stops it inside a step, the
+ * step ends at that cycle, every other servo run to it, and world_run_until returns there.
+ * Runs the servos on one thread from then on (world_set_threads). NULL: none. */
+void world_set_debugged(world_t *world, servo_t *servo);
+
+/* True while gdb holds the debugged servo: world_run_until does not advance. */
+bool world_held(const world_t *world);
 
 /* Persists every EEPROM whose write sequence has finished. Returns the number of failures. */
 int world_poll_persist(world_t *world);

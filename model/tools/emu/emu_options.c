@@ -63,6 +63,14 @@ static const char usage_text[] =
     "                      start or stop bit is a framing error\n"
     "  --seed N            seed of the noise, 0..2^64-1 (default 1): the same seed and the\n"
     "                      same bytes on the wire give the same errors\n"
+    "  --trace FILE.vcd    write every servo's pins (bus RX / TX and direction, H-bridge PWM,\n"
+    "                      LED, duty registers, the control tick's interrupt) as a VCD\n"
+    "                      waveform in simulated time, for GTKWave (docs/debugging.md);\n"
+    "                      about 2 MB per simulated second per servo driving its motor\n"
+    "  --trace-ids LIST    trace only these servos (a subset of --ids; default: all)\n"
+    "  --gdb ID[:PORT]     open servo ID's firmware to avr-gdb on TCP PORT (default 1234):\n"
+    "                      `target remote :PORT`; it runs until gdb attaches; while gdb\n"
+    "                      holds it stopped, the whole bus stops (docs/debugging.md)\n"
     "  -h, --help          this text\n"
     "\n"
     "The physical world of every servo (model/plant: motor, gears, pot, supply, heat):\n";
@@ -172,10 +180,40 @@ bool emu_servo_world(const serve_options_t *o, uint8_t id, plant_options_t *worl
   return true;
 }
 
+/* --gdb ID[:PORT]. */
+static bool parse_gdb(const char *text, serve_options_t *o) {
+  char id_text[16];
+  const char *colon = strchr(text, ':');
+  const size_t id_len = colon ? (size_t)(colon - text) : strlen(text);
+  unsigned id = 0, port = EMU_GDB_DEFAULT_PORT;
+  if (id_len == 0 || id_len >= sizeof(id_text)) {
+    return false;
+  }
+  memcpy(id_text, text, id_len);
+  id_text[id_len] = '\0';
+  if (!parse_uint(id_text, ID_LIST_MAX_ID, &id) || (colon && (!parse_uint(colon + 1, 65535, &port) || port == 0))) {
+    return false;
+  }
+  o->gdb = true;
+  o->gdb_id = (uint8_t)id;
+  o->gdb_port = port;
+  return true;
+}
+
+static bool id_listed(const serve_options_t *o, uint8_t id) {
+  for (size_t i = 0; i < o->id_count; i++) {
+    if (o->ids[i] == id) {
+      return true;
+    }
+  }
+  return false;
+}
+
 int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
   enum { OPT_IDS = 256, OPT_LINK, OPT_STATE_DIR, OPT_PROFILE, OPT_MCU, OPT_BAUD, OPT_REALTIME, OPT_FAST, OPT_ELF,
          OPT_FIRMWARE_DIR, OPT_STATS, OPT_BIT_ERROR_RATE, OPT_SEED, OPT_ADAPTER,
-         OPT_WORLD, OPT_CONTROL, OPT_DASHBOARD, OPT_LOG_BUS };
+         OPT_WORLD, OPT_CONTROL, OPT_DASHBOARD, OPT_LOG_BUS,
+         OPT_TRACE, OPT_TRACE_IDS, OPT_GDB };
   static const struct option long_options[] = {
       {"ids", required_argument, NULL, OPT_IDS},
       {"link", required_argument, NULL, OPT_LINK},
@@ -195,6 +233,9 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       {"control", required_argument, NULL, OPT_CONTROL},
       {"dashboard", required_argument, NULL, OPT_DASHBOARD},
       {"log-bus", required_argument, NULL, OPT_LOG_BUS},
+      {"trace", required_argument, NULL, OPT_TRACE},
+      {"trace-ids", required_argument, NULL, OPT_TRACE_IDS},
+      {"gdb", required_argument, NULL, OPT_GDB},
       PLANT_LONG_OPTIONS,
       {"help", no_argument, NULL, 'h'},
       {NULL, 0, NULL, 0},
@@ -304,6 +345,22 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       }
       o->log_bus = optarg;
       break;
+    case OPT_TRACE:
+      if (!optarg[0]) {
+        return fail_usage("empty --trace");
+      }
+      o->trace_path = optarg;
+      break;
+    case OPT_TRACE_IDS:
+      if (!id_list_parse(optarg, o->trace_ids, &o->trace_id_count, err, sizeof(err))) {
+        return fail_usage("--trace-ids: %s", err);
+      }
+      break;
+    case OPT_GDB:
+      if (!parse_gdb(optarg, o)) {
+        return fail_usage("bad --gdb '%s': ID[:PORT], ID 0..253, PORT 1..65535", optarg);
+      }
+      break;
     case 'h':
       emu_print_usage(stdout);
       return 0;
@@ -322,12 +379,19 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
   if (optind < argc) {
     return fail_usage("unexpected argument '%s'", argv[optind]);
   }
-  for (size_t i = 0; i < o->servo_world_count; i++) {
-    bool on_bus = false;
-    for (size_t k = 0; k < o->id_count; k++) {
-      on_bus |= o->ids[k] == o->servo_world[i].id;
+  if (o->trace_id_count && !o->trace_path) {
+    return fail_usage("--trace-ids without --trace");
+  }
+  for (size_t i = 0; i < o->trace_id_count; i++) {
+    if (!id_listed(o, o->trace_ids[i])) {
+      return fail_usage("--trace-ids: servo %u is not on the bus (--ids)", o->trace_ids[i]);
     }
-    if (!on_bus) {
+  }
+  if (o->gdb && !id_listed(o, o->gdb_id)) {
+    return fail_usage("--gdb: servo %u is not on the bus (--ids)", o->gdb_id);
+  }
+  for (size_t i = 0; i < o->servo_world_count; i++) {
+    if (!id_listed(o, o->servo_world[i].id)) {
       return fail_usage("--world %u:%s: no servo %u in --ids", o->servo_world[i].id, o->servo_world[i].option,
                         o->servo_world[i].id);
     }

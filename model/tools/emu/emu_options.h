@@ -50,7 +50,15 @@ typedef struct {
   char control_path[PATH_MAX];   /* the control socket (emu_control.h) */
   bool control_explicit;         /* given with --control: failing to open it is an error */
   const char *dashboard;         /* --dashboard [HOST:]PORT, NULL: none (emu_dashboard.h) */
+  const char *trace_path;  /* --trace: the VCD file; NULL = no trace */
+  uint8_t trace_ids[ID_LIST_MAX_ID + 1u]; /* --trace-ids: the servos traced (all of --ids if not given) */
+  size_t trace_id_count;   /* 0: every servo */
+  bool gdb;                /* --gdb given */
+  uint8_t gdb_id;          /* the servo opened to gdb */
+  unsigned gdb_port;       /* its TCP port (default EMU_GDB_DEFAULT_PORT) */
 } serve_options_t;
+
+#define EMU_GDB_DEFAULT_PORT 1234u
 
 /* Servo `id`'s world: the bus-wide options with its own --world entries over them (a load of
  * its own replaces the bus-wide one). False with err set when they conflict (the parser

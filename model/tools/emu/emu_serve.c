@@ -15,15 +15,28 @@
 #include "pty_bridge.h"
 #include "servo.h"
 #include "servo_eeprom.h"
+#include "servo_gdb.h"
 #include "servo_plant.h"
 #include "state_lock.h"
 #include "world.h"
+#include "world_trace.h"
 
 #define SLICE_US 100u
 #define BOOT_LIMIT_MS 2000u
 #define SHUTDOWN_SETTLE_MS 500u
 #define LAG_REPORT_US 20000.0
 #define LAG_REPORT_PERIOD_US 10e6
+#define TRACE_FLUSH_PERIOD_US 100000.0 /* the VCD on disk lags at most this much wall time */
+#define GDB_WAIT_US 50000u              /* while gdb holds the bus: its requests are waited for */
+
+/* --trace and --gdb: the waveform file and the servo opened to gdb. */
+typedef struct {
+  world_trace_t *trace;
+  const char *trace_path;
+  double trace_flush_at_us;
+  servo_gdb_t gdb;
+  bool gdb_open;
+} serve_debug_t;
 
 static volatile sig_atomic_t stop_requested;
 
@@ -85,6 +98,115 @@ static void print_stats(const world_t *world, const pty_bridge_t *pty, const pac
             (unsigned long long)s->eeprom_writes, (unsigned long long)s->persists,
             (unsigned long long)s->watchdog_resets, s->halted ? ", HALTED" : "");
   }
+}
+
+static size_t servo_index_of(const serve_options_t *o, uint8_t id) {
+  for (size_t i = 0; i < o->id_count; i++) {
+    if (o->ids[i] == id) {
+      return i;
+    }
+  }
+  return 0; /* the parser checked every ID against --ids */
+}
+
+/* Opens the trace and the gdb port asked for; false with err set. */
+static bool debug_open(serve_debug_t *d, world_t *world, const serve_options_t *o, char *err, size_t err_len) {
+  memset(d, 0, sizeof(*d));
+  if (o->trace_path) {
+    bool traced[WORLD_MAX_SERVOS];
+    for (size_t i = 0; i < world->servo_count; i++) {
+      traced[i] = o->trace_id_count == 0;
+    }
+    for (size_t i = 0; i < o->trace_id_count; i++) {
+      traced[servo_index_of(o, o->trace_ids[i])] = true;
+    }
+    d->trace = world_trace_open(world, o->trace_path, traced, err, err_len);
+    if (!d->trace) {
+      return false;
+    }
+    d->trace_path = o->trace_path;
+    d->trace_flush_at_us = pacing_wall_us() + TRACE_FLUSH_PERIOD_US;
+  }
+  if (o->gdb) {
+    servo_t *servo = world->servos[servo_index_of(o, o->gdb_id)];
+    if (!servo_gdb_open(&d->gdb, servo, o->gdb_port, err, err_len)) {
+      return false;
+    }
+    d->gdb_open = true;
+    world_set_debugged(world, servo);
+    fprintf(stderr,
+            "ax12-emu: servo %u (%s): gdb on 127.0.0.1:%u: avr-gdb %s -ex 'target remote :%u'; it runs until gdb "
+            "attaches; while gdb holds it, the whole bus stands still\n",
+            o->gdb_id, servo->name, o->gdb_port, o->elf, o->gdb_port);
+  }
+  if (d->trace) {
+    fprintf(stderr, "ax12-emu: tracing %zu servo%s to %s\n", d->trace->count, d->trace->count == 1 ? "" : "s",
+            o->trace_path);
+  }
+  return true;
+}
+
+/* After each run of the world: the trace's events that are final, on disk every
+ * TRACE_FLUSH_PERIOD_US; gdb's requests. */
+static void debug_after_run(serve_debug_t *d) {
+  if (d->trace) {
+    world_trace_commit(d->trace);
+    const double wall = pacing_wall_us();
+    if (wall >= d->trace_flush_at_us) {
+      (void)world_trace_flush(d->trace);
+      d->trace_flush_at_us = wall + TRACE_FLUSH_PERIOD_US;
+    }
+  }
+  if (d->gdb_open) {
+    servo_gdb_poll(&d->gdb, 0);
+  }
+}
+
+/* While gdb holds the world: serves gdb alone until it lets go or a signal comes; simulated
+ * time stands still, so real-time pacing restarts from here afterwards. */
+static void debug_wait_while_held(serve_debug_t *d, world_t *world, pacing_t *pacing) {
+  if (!d->gdb_open || !world_held(world)) {
+    return;
+  }
+  fprintf(stderr, "ax12-emu: gdb holds %s at pc 0x%04x, %.6f s simulated: the bus stands still\n",
+          d->gdb.servo->name, servo_gdb_pc(&d->gdb), sim_cycles_to_us(world->now) / 1e6);
+  if (d->trace) {
+    (void)world_trace_flush(d->trace);
+  }
+  while (!stop_requested && world_held(world)) {
+    servo_gdb_poll(&d->gdb, GDB_WAIT_US);
+  }
+  pacing_resume(pacing, world->now);
+}
+
+/* Closes the gdb port (a held servo runs on: before the shutdown's settling). */
+static void debug_close_gdb(serve_debug_t *d) {
+  if (d->gdb_open) {
+    servo_gdb_close(&d->gdb);
+    d->gdb_open = false;
+  }
+}
+
+/* Writes the rest of the trace (one line on stderr when `report`); returns false when the
+ * file could not be written. */
+static bool debug_close_trace(serve_debug_t *d, const world_t *world, bool report) {
+  if (!d->trace) {
+    return true;
+  }
+  const unsigned long long changes = d->trace->changes;
+  const size_t servos = d->trace->count;
+  const int closed = world_trace_close(d->trace);
+  d->trace = NULL;
+  if (closed != 0) {
+    fprintf(stderr, "ax12-emu: the trace %s could not be written whole\n", d->trace_path);
+    return false;
+  }
+  if (!report) {
+    return true;
+  }
+  fprintf(stderr, "ax12-emu: trace %s: %zu servo%s, %.3f s simulated, %llu value changes\n", d->trace_path, servos,
+          servos == 1 ? "" : "s", sim_cycles_to_us(world->now) / 1e6, changes);
+  return true;
 }
 
 static sim_cycles_t sim_of_wall(void *ctx, double wall_us) { return pacing_sim_at(ctx, wall_us); }
@@ -210,6 +332,17 @@ int emu_serve(const serve_options_t *o) {
     fprintf(stderr, "ax12-emu: dashboard at %s\n", dashboard.url);
   }
 
+  serve_debug_t debug;
+  if (!debug_open(&debug, world, o, err, sizeof(err))) {
+    fprintf(stderr, "ax12-emu: %s\n", err);
+    debug_close_gdb(&debug);
+    (void)debug_close_trace(&debug, world, false);
+    pty_bridge_close(&pty);
+    release_locks(locks, lock_count);
+    world_destroy(world);
+    return 1;
+  }
+
   struct sigaction sa;
   memset(&sa, 0, sizeof(sa));
   sa.sa_handler = on_signal;
@@ -226,6 +359,7 @@ int emu_serve(const serve_options_t *o) {
   /* Boot: until every servo listens on the bus. */
   bool booted = false;
   while (!stop_requested && world->now < sim_ms(BOOT_LIMIT_MS)) {
+    debug_wait_while_held(&debug, world, &pacing);
     booted = true;
     for (size_t i = 0; i < world->servo_count; i++) {
       booted &= servo_listening(world->servos[i]);
@@ -234,6 +368,7 @@ int emu_serve(const serve_options_t *o) {
       break;
     }
     world_run_until(world, world->now + slice);
+    debug_after_run(&debug);
     (void)pacing_wait(&pacing, world->now, -1);
   }
   if (!booted && !stop_requested) {
@@ -251,6 +386,10 @@ int emu_serve(const serve_options_t *o) {
   double lag_report_at_us = pacing_wall_us() + LAG_REPORT_PERIOD_US;
   double lag_reported_us = 0.0;
   while (!stop_requested) {
+    debug_wait_while_held(&debug, world, &pacing);
+    if (stop_requested) {
+      break;
+    }
     /* Up to the next client byte's arrival at most (it enters the wire at that exact time),
      * and to the adapter's next hand-over to the client (its latency timer). */
     sim_cycles_t until = world->now + slice;
@@ -269,6 +408,7 @@ int emu_serve(const serve_options_t *o) {
       }
     }
     world_run_until(world, until);
+    debug_after_run(&debug);
     (void)pty_bridge_pump(&pty, o->realtime ? sim_of_wall : NULL, &pacing);
     if (control_open) {
       emu_control_poll(&control);
@@ -302,7 +442,9 @@ int emu_serve(const serve_options_t *o) {
   if (control_open) {
     emu_control_close(&control);
   }
+  debug_close_gdb(&debug);
   const int failures = world_settle_and_persist(world, sim_ms(SHUTDOWN_SETTLE_MS));
+  const bool traced = debug_close_trace(&debug, world, true);
   if (failures) {
     for (size_t i = 0; i < world->servo_count; i++) {
       if (world->servos[i]->persist_errors) {
@@ -317,6 +459,6 @@ int emu_serve(const serve_options_t *o) {
   pty_bridge_close(&pty);
   world_destroy(world);
   release_locks(locks, lock_count); /* after the last state file was written */
-  return failures || log_failed ? 1 : 0;
+  return failures || log_failed || !traced ? 1 : 0;
 }
 

@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The serve loop of `ax12-emu serve`: the world of servos on their plants, the pty bridge,
- * real-time pacing, and a clean stop with every EEPROM persisted. */
+ * real-time pacing, the waveform trace and the gdb port (docs/debugging.md), and a clean stop
+ * with every EEPROM persisted and the trace complete. */
 #ifndef EMU_SERVE_H
 #define EMU_SERVE_H
 
