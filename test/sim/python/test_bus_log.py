@@ -291,3 +291,36 @@ def test_the_log_shows_colliding_replies_and_keeps_a_cut_packet_at_exit(emulator
         ("servo-1", "status", "1"), ("servo-2", "status", "1")]
     assert [r["raw"] for r in replies] == ["FF FF 01 02 00 FC", "FF FF 02 02 00 FB"]  # as each servo sent it
     assert [(r["sender"], r["kind"], r["raw"]) for r in rows[3:]] == [("client", "garbage", "FF FF 01")]
+
+
+def test_a_replay_on_a_deliberately_broken_firmware_build_reports_it(emulator, tmp_path):
+    """A session recorded raw (a PING, a broadcast READ, a READ) replays the same on the product
+    firmware and differs on a build with one deliberate defect: the test/conform build that
+    answers a broadcast READ (AX12_CONFORM_DEFECT=BROADCAST_READ)."""
+    import serial
+    defect = os.path.join(os.environ.get("AX12_CONFORM_DEFECT_DIR", os.path.join(BUILD, "test", "conform", "defects")),
+                          "BROADCAST_READ", "ax12-ax12-atmega88.elf")
+    if not os.path.exists(defect):
+        pytest.fail("the defect build is missing: %s (built with the tests)" % defect)
+    import ax12_packets as P
+    log = tmp_path / "raw.csv"
+    emu = emulator("--realtime", "--state-dir", str(tmp_path / "record"), "--log-bus", str(log))
+    with serial.Serial(emu.device, 1000000, timeout=0.2) as port:
+        for packet in (P.instruction_packet(1, T.INST_PING), P.instruction_packet(0xFE, T.INST_READ, [T.ID, 1]),
+                       P.instruction_packet(1, T.INST_READ, [T.ID, 1])):
+            port.write(packet)
+            time.sleep(0.1)
+    emu.stop()
+    rows = rows_of(log)
+    assert [(r["sender"], r["code_name"]) for r in rows] == [
+        ("client", "PING"), ("servo-1", "NONE"), ("client", "READ"), ("client", "READ"), ("servo-1", "NONE")]
+
+    for attempt in range(3):
+        same = replay(log, emulator("--realtime", "--state-dir", str(tmp_path / ("same%d" % attempt))).device)
+        if ": missing:" not in same.stdout:
+            break
+    assert same.returncode == 0, same.stdout + same.stderr
+    broken = emulator("--realtime", "--state-dir", str(tmp_path / "broken"), "--elf", defect)
+    differ = replay(log, broken.device)
+    assert differ.returncode == 1, differ.stdout + differ.stderr
+    assert "extra: expected nothing, got FF FF 01 03 00 01 FA" in differ.stdout, differ.stdout
