@@ -58,6 +58,7 @@ class Emulator:
         self.batches = collections.deque(maxlen=PACKET_BATCHES_KEPT)  # packet batches, as text
         self.pages = {}               # open WebSocket -> its queue of lines to send
         self.selected = {}            # open WebSocket -> the slot it shows
+        self.monitoring = {}          # open WebSocket -> whether its bus monitor is on screen
 
     async def connect(self):
         self.reader, self.writer = await asyncio.open_unix_connection(self.path, limit=1 << 24)
@@ -103,7 +104,8 @@ class Emulator:
             elif text.startswith('{"event":"packets"'):
                 self.batches.append(text)
                 for ws in list(self.pages):
-                    self.relay(ws, text)
+                    if self.monitoring.get(ws, True):
+                        self.relay(ws, text)
 
     def relay(self, ws, text):
         queue = self.pages.get(ws)
@@ -205,6 +207,13 @@ async def answer(emu, ws, msg):
     if kind == "select":
         emu.selected[ws] = msg.get("slot")
         return None
+    if kind == "monitor":  # the page's monitor came on screen (the last seconds first) or left it
+        on = bool(msg.get("on"))
+        if on and not emu.monitoring.get(ws, True):
+            for batch in emu.batches:
+                emu.relay(ws, batch)
+        emu.monitoring[ws] = on
+        return None
     try:
         if kind == "write":
             return await page_write(emu, msg)
@@ -220,9 +229,8 @@ async def websocket(request):
     ws = web.WebSocketResponse(heartbeat=10.0)
     await ws.prepare(request)
     queue = asyncio.Queue(PAGE_QUEUE)
-    for batch in emu.batches:  # the packets of the last seconds first
-        queue.put_nowait(batch)
     emu.pages[ws] = queue
+    emu.monitoring[ws] = False  # until the page says its monitor is on screen
     if len(emu.pages) == 1:
         await emu.subscribe()
     sender = asyncio.ensure_future(send_queued(ws, queue))
@@ -247,6 +255,7 @@ async def websocket(request):
     finally:
         emu.pages.pop(ws, None)
         emu.selected.pop(ws, None)
+        emu.monitoring.pop(ws, None)
         sender.cancel()
         if not emu.pages:
             await emu.subscribe()

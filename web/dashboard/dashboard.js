@@ -263,7 +263,10 @@ function packetRowHtml(p) {
 // most every MONITOR_PERIOD_MS, with the last MONITOR_ROWS matching packets.
 // The monitor is drawn only while it is on screen (the packets are kept all the same).
 let monitorTimer = null;
-let monitorVisible = true;
+let monitorVisible = false;
+function sendMonitorState() {
+  if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify({ type: "monitor", on: monitorVisible }));
+}
 function addPackets(list) {
   for (const p of list) state.packets.push(p);
   if (state.packets.length > MONITOR_KEPT) state.packets.splice(0, state.packets.length - MONITOR_KEPT);
@@ -345,6 +348,8 @@ function connect() {
     $("connection").textContent = "live";
     $("connection").className = "good";
     if (state.selected !== null) ws.send(JSON.stringify({ type: "select", slot: state.selected }));
+    state.packets = [];
+    sendMonitorState();
   };
   ws.onclose = () => {
     $("connection").textContent = "disconnected (is the emulator still running?)";
@@ -368,8 +373,14 @@ async function start() {
   $("monitor-filter").addEventListener("input", renderMonitor);
   $("monitor-export").addEventListener("click", exportCsv);
   $("monitor-clear").addEventListener("click", () => { state.packets = []; renderMonitor(); });
+  // Packets come only while the monitor is on screen (the server sends the last seconds when it
+  // comes back): a page scrolled to its charts does not parse thousands of packets a second.
   new IntersectionObserver((entries) => {
-    monitorVisible = entries.some((e) => e.isIntersecting);
+    const visible = entries.some((e) => e.isIntersecting);
+    if (visible === monitorVisible) return;
+    monitorVisible = visible;
+    if (visible) state.packets = []; // the server sends the kept seconds again
+    sendMonitorState();
     if (monitorVisible && !$("monitor-pause").checked) renderMonitor();
   }).observe($("monitor-scroll"));
   connect();

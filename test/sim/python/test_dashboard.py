@@ -74,11 +74,14 @@ def browser(downloads):
 def retried(call, *args):
     """An SDK exchange, again when it timed out: on a loaded machine the kernel sometimes holds a
     pty write back for longer than the SDK waits (with or without the dashboard)."""
-    for _ in range(5):
-        outcome = call(*args)
-        if outcome[-2] == sdk.COMM_SUCCESS:
+    deadline = time.monotonic() + 2.0  # the pty has been seen to hold a write for 140 ms
+    while True:
+        try:
+            outcome = call(*args)
+        except IndexError:  # DynamixelSDK 4.1.0 takes a late status of that ID as the reply
+            outcome = (None, sdk.COMM_RX_CORRUPT, 0)
+        if outcome[-2] == sdk.COMM_SUCCESS or time.monotonic() > deadline:
             return outcome
-    return outcome
 
 
 def cell(driver, slot, column):
