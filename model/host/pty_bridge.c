@@ -20,7 +20,7 @@ static double pty_cycles_per_bit(void *ctx) { return ((const pty_bridge_t *)ctx)
 
 static void pty_deliver(void *ctx, const bus_rx_t *rx) {
   pty_bridge_t *pty = ctx;
-  if (pty->held) {
+  if (pty->hidden) {
     pty->hidden_from_client++;
     return;
   }
@@ -406,5 +406,7 @@ sim_cycles_t pty_bridge_next_input(const pty_bridge_t *pty) {
 sim_cycles_t pty_bridge_next_output(const pty_bridge_t *pty) { return usb_adapter_next_release(&pty->adapter); }
 
 void pty_bridge_hold(pty_bridge_t *pty, bool held) { pty->held = held; }
+
+void pty_bridge_hide(pty_bridge_t *pty, bool hidden) { pty->hidden = hidden; }
 
 int pty_bridge_wake_fd(const pty_bridge_t *pty) { return pty->wake_pipe[0]; }

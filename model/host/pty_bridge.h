@@ -91,8 +91,9 @@ typedef struct {
   uint64_t from_client;
   uint64_t to_client;
   uint64_t dropped_to_client; /* the client did not read and the pty buffer was full */
-  /* pty_bridge_hold(): another master (the dashboard's packets, emu_control.c) has the bus. */
-  bool held;
+  /* Another master (the dashboard's packets, emu_bus_master.h) wants or has the bus. */
+  bool held;   /* pty_bridge_hold() */
+  bool hidden; /* pty_bridge_hide() */
   uint64_t hidden_from_client; /* bytes the bus carried while held, not shown to the client */
 } pty_bridge_t;
 
@@ -121,11 +122,12 @@ sim_cycles_t pty_bridge_next_input(const pty_bridge_t *pty);
  * at that simulated time. */
 sim_cycles_t pty_bridge_next_output(const pty_bridge_t *pty);
 
-/* While held, the client's bytes wait in the bridge (they enter the wire when it is let go,
- * in order, at that time) and the bytes on the bus are not shown to the client: another
- * master's exchange with a servo is invisible to the client, which sees at most its own
- * packet delayed by that exchange. */
+/* While held, the client's bytes wait in the bridge (they enter the wire when it is let go, in
+ * order, at that time). While hidden, the bytes on the bus are not shown to the client. A
+ * second master holds the client until the bus is quiet, then hides its own exchange: the
+ * client sees at most its next packet delayed. */
 void pty_bridge_hold(pty_bridge_t *pty, bool held);
+void pty_bridge_hide(pty_bridge_t *pty, bool hidden);
 
 /* A descriptor that becomes readable when the client has written (for poll); drained by
  * pty_bridge_pump. */

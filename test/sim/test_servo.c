@@ -200,6 +200,37 @@ static void test_reply_starts_two_us_times_return_delay_time_after_the_stop_bit(
   harness_close(&h);
 }
 
+/* A master may send its next packet as soon as a status packet ends (a controller on the bus
+ * does; a PC behind a USB adapter cannot): it is answered at the Return Delay Time like any
+ * other, whatever the gap after the servo's own reply. */
+static void test_a_packet_right_after_the_servos_reply_is_answered_on_time(void **state) {
+  (void)state;
+  harness_t h;
+  open_one(&h, NULL);
+  static const unsigned gaps_us[] = {0, 1, 5, 10, 20, 50, 100, 200, 400};
+  for (size_t g = 0; g < sizeof gaps_us / sizeof gaps_us[0]; g++) {
+    for (unsigned phase = 0; phase < 8; phase++) {
+      uint8_t packet[16];
+      const size_t len = packet_encode(packet, 1, DXL_INST_WRITE, HP(28, (uint8_t)(32 + phase)));
+      master_rx_clear(h.master);
+      const sim_cycles_t write_end = master_send(h.master, packet, len);
+      world_run_until(h.world, write_end + sim_us(37u * phase));
+      while (master_rx_count(h.master) < STATUS_LEN(0)) {
+        world_run_until(h.world, h.world->now + 8u);
+      }
+      const sim_cycles_t reply_end = master_rx(h.master, STATUS_LEN(0) - 1u)->end;
+      world_run_until(h.world, reply_end + sim_us(gaps_us[g]));
+      const wire_timing_t t = request_timing(&h, 1, DXL_INST_READ, HP(36, 2), STATUS_LEN(2));
+      const double error_us = sim_cycles_to_us(t.latency) - 500.0; /* factory RDT 250: 500 us */
+      if (error_us < -2.0 || error_us > 2.0) {
+        fail_msg("READ %u us after the servo's reply (phase %u): answered %.2f us after its stop bit, not 500",
+                 gaps_us[g], phase, sim_cycles_to_us(t.latency));
+      }
+    }
+  }
+  harness_close(&h);
+}
+
 /* A reply the main loop composes after the packet (here a broadcast PING, which the 2006
  * manual answers; also RESET, unknown instructions and Checksum Errors: docs/firmware.md
  * "Reply timing") starts 2 us x Return Delay Time after the stop bit, within half a
@@ -665,6 +696,7 @@ int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_ping_is_answered_on_the_wire),
       cmocka_unit_test(test_reply_starts_two_us_times_return_delay_time_after_the_stop_bit),
+      cmocka_unit_test(test_a_packet_right_after_the_servos_reply_is_answered_on_time),
       cmocka_unit_test(test_a_reply_the_main_loop_composes_starts_on_time_when_the_delay_allows),
       cmocka_unit_test(test_a_packet_cut_before_its_checksum_is_dropped_and_the_next_answered),
       cmocka_unit_test(test_a_baud_change_replies_at_the_old_baud_then_only_the_new_one_works),

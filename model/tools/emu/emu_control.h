@@ -28,71 +28,42 @@
 
 #include "bus_monitor.h"
 #include "control_socket.h"
-#include "master.h"
+#include "emu_bus_master.h"
+#include "emu_packet_stream.h"
+#include "emu_status.h"
 #include "plant_options.h"
 #include "pty_bridge.h"
-#include "servo_probe.h"
 #include "world.h"
-
-#define EMU_CONTROL_QUEUE 16u
-#define EMU_CONTROL_PACKET_MAX 256u
-#define EMU_CONTROL_BATCH_MAX 4000u
-
-typedef struct {
-  unsigned client;
-  uint8_t bytes[EMU_CONTROL_PACKET_MAX];
-  size_t len;
-} emu_control_send_t;
 
 typedef struct {
   control_socket_t socket;
-  world_t *world;
-  pty_bridge_t *pty;
-  plant_options_t *worlds; /* each servo's world now, world->servo_count of them */
-  const uint8_t *slot_ids; /* each servo's --ids entry */
-  servo_probe_map_t map;
-  /* Per client: telemetry period (0 = none), when it is next due (wall us), table or not. */
+  emu_servos_t servos;
+  emu_bus_master_t master;      /* "send" */
+  emu_packet_stream_t packets;  /* "packets" subscriptions */
+  /* Per client: telemetry period (0 = none) and when it is next due (wall us); tables in it
+   * (with_table), at most table_period_us apart when that is not 0; packets or not. */
   double period_us[CONTROL_MAX_CLIENTS];
   double due_us[CONTROL_MAX_CLIENTS];
   bool with_table[CONTROL_MAX_CLIENTS];
-  double table_period_us[CONTROL_MAX_CLIENTS]; /* tables only this far apart (0: in every event) */
+  double table_period_us[CONTROL_MAX_CLIENTS];
   double table_due_us[CONTROL_MAX_CLIENTS];
-  /* Packets to put on the bus, the first one in flight once `sending`. */
-  master_t *master;
-  emu_control_send_t queue[EMU_CONTROL_QUEUE];
-  size_t queue_head, queue_count;
-  bool sending;
-  sim_cycles_t last_rx_end; /* of the reply so far (0: none yet) */
-  sim_cycles_t request_end; /* end of the packet's last byte on the wire */
-  uint64_t sent_packets;
-  /* The bus monitor's packets for subscribers: the monitor of --log-bus (*shared_monitor) or
-   * one of its own while anyone subscribes; the batch waiting to go out. */
-  bus_monitor_t **shared_monitor;
-  bus_monitor_t *own_monitor;
-  int listener;
-  int client_node;
   bool with_packets[CONTROL_MAX_CLIENTS];
-  void *batch; /* cJSON array */
-  size_t batch_count;
-  uint64_t packets_dropped; /* past EMU_CONTROL_BATCH_MAX in one batch */
-  double batch_due_us;
   double next_poll_us; /* wall clock */
 } emu_control_t;
 
 /* Opens the socket at path. worlds and slot_ids: one per servo of the world, kept by the
  * caller; worlds are updated by "world" requests. *monitor: the bus monitor of --log-bus when
- * there is one (else NULL: one is made while packets are subscribed), client_node the pty's
- * node. -1 with err set. */
+ * there is one (else NULL: one is made while packets are subscribed). -1 with err set. */
 int emu_control_open(emu_control_t *c, const char *path, world_t *world, pty_bridge_t *pty,
                      plant_options_t *worlds, const uint8_t *slot_ids, const char *elf_path,
                      bus_monitor_t **monitor, char *err, size_t err_len);
 void emu_control_close(emu_control_t *c);
 
-/* Between world steps: requests, pushed telemetry, and the packet on the bus. */
+/* Between world steps: requests, pushed telemetry and packets, and the packet on the bus. */
 void emu_control_poll(emu_control_t *c);
 
-/* While a packet of "send" is on the bus, the world must step no further than this before the
- * next poll; else SIM_CYCLES_NEVER. */
+/* While a packet of "send" waits or is on the bus, the world must step no further than this
+ * before the next poll; else SIM_CYCLES_NEVER. */
 sim_cycles_t emu_control_next_event(const emu_control_t *c);
 
 #endif

@@ -1,0 +1,31 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+/* What the control protocol tells of the servos (docs/dashboard.md "The control socket"): each
+ * servo's firmware state (read from RAM, servo_probe.h), its plant and its world, as JSON. */
+#ifndef EMU_STATUS_H
+#define EMU_STATUS_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include <cjson/cJSON.h>
+
+#include "plant_options.h"
+#include "servo_probe.h"
+#include "world.h"
+
+/* The bus's servos as the control protocol sees them. */
+typedef struct {
+  world_t *world;
+  plant_options_t *worlds; /* each servo's world now, world->servo_count of them */
+  const uint8_t *slot_ids; /* each servo's --ids entry */
+  servo_probe_map_t map;   /* where the firmware keeps its table */
+} emu_servos_t;
+
+/* The answer to "status" (event false: "ok", "op") or a "telemetry" event: the time, the
+ * profile and MCU, every servo; with_table adds each control table. */
+cJSON *emu_status_json(const emu_servos_t *v, bool event, bool with_table);
+
+/* A servo's world options as the protocol names them. */
+cJSON *emu_world_json(const plant_options_t *o);
+
+#endif
