@@ -17,7 +17,7 @@ int lab_heating(const lab_options_t *o) {
   lab_write_u8(&lab, A_TORQUE_ENABLE, 1);
   /* A stiff spring toward 150 deg: the servo winds it up a little and stalls at full drive. */
   lab_set_load(&lab, ax12_load_spring(20.0, 150.0 / LAB_DEG_PER_RAD));
-  printf("t_s,lab_present_temperature,limit,case_c,winding_c,current_a,torque_enable\n");
+  printf("t_s,present_temperature,limit,case_c,winding_c,current_a,torque_enable\n");
   const double t0 = lab_now_ms(&lab);
   double off_since = -1.0;
   for (;;) {
