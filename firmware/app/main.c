@@ -154,7 +154,11 @@ static bool link_free(void);
 static __attribute__((noinline)) void sniff_start(void) {
   /* Callers: nothing armed. */
   if (uart_sniff == UART_SNIFF_OFF && link_free() && dxl_finder_idle(&finder)) { /* usually on */
-    uart_reply_load(response.bytes, DXL_PING_REPLY_BYTES, response.delay_us);
+    /* The delay from the table: after a packet that got no reply (another servo's, a broadcast
+     * PING of profile ax12a) `response` holds the PING reply's bytes beside a header that
+     * dxl_servo_prepare() cleared, delay 0 included. */
+    uart_reply_load(response.bytes, DXL_PING_REPLY_BYTES,
+                    (uint16_t)(DXL_RETURN_DELAY_UNIT_US * servo.table[CT_ADDR_RETURN_DELAY_TIME]));
     uart_sniff_start(servo.table[CT_ADDR_ID], dxl_servo_stream_mask(&servo));
   }
 }

@@ -231,6 +231,35 @@ static void test_a_packet_right_after_the_servos_reply_is_answered_on_time(void 
   harness_close(&h);
 }
 
+/* The ready PING reply (answered by the RX interrupt) keeps the Return Delay Time after a
+ * packet that got no reply: another servo's, or a broadcast PING of profile ax12a. */
+static void ping_after_silent_packet(const char *profile, const uint8_t *silent, size_t silent_len) {
+  harness_t h;
+  harness_open(&h, profile, "atmega88", 1);
+  harness_add_servo(&h, 1, 1, NULL);
+  harness_boot(&h, 5);
+  for (unsigned round = 0; round < 3; round++) {
+    uint8_t reply[64];
+    assert_int_equal(harness_exchange(&h, silent, silent_len, 0, reply, sizeof reply), 0);
+    const wire_timing_t t = request_timing(&h, 1, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0));
+    const double error_us = sim_cycles_to_us(t.latency) - 500.0; /* factory RDT 250: 500 us */
+    if (error_us < -2.0 || error_us > 2.0) {
+      fail_msg("%s, round %u: a PING after a packet with no reply was answered %.2f us after its stop bit, not 500",
+               profile, round, sim_cycles_to_us(t.latency));
+    }
+  }
+  harness_close(&h);
+}
+
+static void test_a_ping_after_a_packet_with_no_reply_keeps_the_return_delay_time(void **state) {
+  (void)state;
+  static const uint8_t broadcast_ping[] = {0xFF, 0xFF, 0xFE, 0x02, 0x01, 0xFE};
+  static const uint8_t read_of_servo_2[] = {0xFF, 0xFF, 0x02, 0x04, 0x02, 0x24, 0x02, 0xD1};
+  ping_after_silent_packet("ax12a", broadcast_ping, sizeof broadcast_ping);
+  ping_after_silent_packet("ax12", read_of_servo_2, sizeof read_of_servo_2);
+  ping_after_silent_packet("ax12a", read_of_servo_2, sizeof read_of_servo_2);
+}
+
 /* A reply the main loop composes after the packet (here a broadcast PING, which the 2006
  * manual answers; also RESET, unknown instructions and Checksum Errors: docs/firmware.md
  * "Reply timing") starts 2 us x Return Delay Time after the stop bit, within half a
@@ -697,6 +726,7 @@ int main(void) {
       cmocka_unit_test(test_ping_is_answered_on_the_wire),
       cmocka_unit_test(test_reply_starts_two_us_times_return_delay_time_after_the_stop_bit),
       cmocka_unit_test(test_a_packet_right_after_the_servos_reply_is_answered_on_time),
+      cmocka_unit_test(test_a_ping_after_a_packet_with_no_reply_keeps_the_return_delay_time),
       cmocka_unit_test(test_a_reply_the_main_loop_composes_starts_on_time_when_the_delay_allows),
       cmocka_unit_test(test_a_packet_cut_before_its_checksum_is_dropped_and_the_next_answered),
       cmocka_unit_test(test_a_baud_change_replies_at_the_old_baud_then_only_the_new_one_works),
