@@ -421,6 +421,28 @@ static void an_overload_shutdown_stays_latched_until_torque_enable_is_written(vo
   assert_false(dxl_servo_conditions(&r.servo) & DXL_ERR_OVERLOAD);
 }
 
+/* docs/policy.md "Alarms": an Overload raised stays raised while torque is off, whatever
+ * turned it off (here a client), until Torque Enable is written 1. */
+static void an_overload_stays_raised_while_a_client_has_torque_off(void **state) {
+  (void)state;
+  rig_t r;
+  rig_init(&r, 200);
+  r.stalled = true;
+  r.servo.table[CT_ADDR_ALARM_SHUTDOWN] = 0; /* no shutdown: the client turns torque off */
+  r.servo.table[CT_ADDR_TORQUE_ENABLE] = 1;
+  write_u16(&r, CT_ADDR_GOAL_POSITION, 800);
+  run_ms(&r, DXL_OVERLOAD_WINDOW_MS + 5);
+  assert_true(dxl_servo_conditions(&r.servo) & DXL_ERR_OVERLOAD);
+  r.servo.table[CT_ADDR_TORQUE_ENABLE] = 0;
+  r.stalled = false;
+  run_ms(&r, 500);
+  assert_true(dxl_servo_conditions(&r.servo) & DXL_ERR_OVERLOAD);
+  write_u16(&r, CT_ADDR_GOAL_POSITION, read_u16(&r, CT_ADDR_PRESENT_POSITION));
+  r.servo.table[CT_ADDR_TORQUE_ENABLE] = 1;
+  run_ms(&r, 1);
+  assert_false(dxl_servo_conditions(&r.servo) & DXL_ERR_OVERLOAD);
+}
+
 static void present_speed_reads_the_rate_and_zero_at_rest(void **state) {
   (void)state;
   rig_t r;
@@ -468,6 +490,7 @@ int main(void) {
       cmocka_unit_test(input_voltage_outside_the_limits_is_a_condition),
       cmocka_unit_test(a_stall_at_the_torque_limit_is_an_overload_after_the_window),
       cmocka_unit_test(an_overload_shutdown_stays_latched_until_torque_enable_is_written),
+      cmocka_unit_test(an_overload_stays_raised_while_a_client_has_torque_off),
       cmocka_unit_test(present_speed_reads_the_rate_and_zero_at_rest),
       cmocka_unit_test(events_blink_the_led_when_their_bit_is_set),
       cmocka_unit_test(a_goal_write_reads_moving_at_once_before_any_tick),
