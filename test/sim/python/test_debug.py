@@ -15,7 +15,7 @@ import vcdvcd
 
 import ax12_table as T
 from ax12_packets import instruction_packet as packet, status_packet
-from conftest import EMU, FIRMWARE_DIR
+from conftest import EMU, FIRMWARE_DIR, transact
 
 UNITS_PER_CYCLE = 625            # the VCD's timescale is 100 ps; a 16 MHz cycle is 62.5 ns
 UNITS_PER_US = 16 * UNITS_PER_CYCLE
@@ -24,13 +24,6 @@ BIT_CYCLES_1MBPS = 16
 SIGNALS = ("rx", "tx", "dir", "led", "pwm_a", "pwm_b", "ocr0a", "ocr0b", "tick")
 ELF = os.path.join(FIRMWARE_DIR, "ax12-ax12-atmega88.elf")
 TICK_VECTOR = "__vector_12"      # TIMER1_COMPB, the control tick's interrupt (firmware/hal/tiny_isr.S)
-
-
-def transact(port, request, reply_len, timeout=1.0):
-    port.reset_input_buffer()
-    port.write(request)
-    port.timeout = timeout
-    return port.read(reply_len)
 
 
 def read_byte(port, ident, addr):

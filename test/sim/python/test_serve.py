@@ -10,16 +10,9 @@ import serial
 
 import ax12_table as T
 from ax12_packets import instruction_packet as packet, parse, status_packet
-from conftest import EMU, FIRMWARE_DIR
+from conftest import EMU, FIRMWARE_DIR, transact
 
 PING_REPLY = {ident: status_packet(ident, 0) for ident in range(254)}
-
-
-def transact(port, request, reply_len, timeout=1.0):
-    port.reset_input_buffer()
-    port.write(request)
-    port.timeout = timeout
-    return port.read(reply_len)
 
 
 def read_byte(port, ident, addr):
