@@ -4,10 +4,11 @@
 page (web/dashboard, charts by uPlot from npm, installed by scripts/setup: nothing is fetched
 at run time) fed through a WebSocket from the emulator's control socket.
 
-The server holds two connections to the control socket: one subscribed, while a page is open,
-to telemetry (20 Hz, each control table 5 times a second) and to the bus monitor's packets,
-one for the page's requests. A page gets every servo 5 times a second (its list and table) and
-the servo it shows 20 times a second (its charts). A
+The server holds three connections to the control socket, subscribed only while a page is
+open: every servo with its control table 5 times a second and the bus monitor's packets; the
+servos the pages show, 20 times a second; and one for the pages' requests. A page gets every
+servo 5 times a second (its list, table and overview) and the servo it shows 20 times a second
+(its charts). A
 page's edit of a control-table item becomes a Protocol 1.0 WRITE that the emulator puts on the
 bus (so it obeys every rule a client's write obeys; the servo's status packet is the answer);
 a world change goes to the emulator as it is. The bus monitor's packets come in batches (one
@@ -63,14 +64,21 @@ class Emulator:
     async def connect(self):
         self.reader, self.writer = await asyncio.open_unix_connection(self.path, limit=1 << 24)
         events_reader, self.events_writer = await asyncio.open_unix_connection(self.path, limit=1 << 24)
-        return events_reader
+        charts_reader, self.charts_writer = await asyncio.open_unix_connection(self.path, limit=1 << 24)
+        return events_reader, charts_reader
 
     async def subscribe(self):
-        """Telemetry and packets while any page is open, nothing otherwise."""
+        """While any page is open: every servo with its control table TABLE_HZ times a second
+        and the packets on one connection; the servos the pages show, without tables,
+        TELEMETRY_HZ times a second on another. Nothing while no page is open."""
         on = bool(self.pages)
-        self.events_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": TELEMETRY_HZ if on else 0,
-                                             "table_hz": TABLE_HZ, "packets": on}).encode() + b"\n")
+        self.events_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": TABLE_HZ if on else 0,
+                                             "table": True, "packets": on}).encode() + b"\n")
+        shown = sorted({slot for slot in self.selected.values() if isinstance(slot, int)})
+        self.charts_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": TELEMETRY_HZ if on and shown else 0,
+                                             "servos": shown}).encode() + b"\n")
         await self.events_writer.drain()
+        await self.charts_writer.drain()
 
     @property
     def latest(self):
@@ -92,15 +100,33 @@ class Emulator:
                 if "event" not in reply:
                     return reply
 
+    async def pump_charts(self, charts_reader):
+        """The shown servos' telemetry: each page gets its own servo's ("partial")."""
+        while True:
+            line = await charts_reader.readline()
+            if not line:
+                return
+            if not line.startswith(b'{"event":"telemetry"'):
+                continue
+            event = json.loads(line)
+            by_slot = {s["slot"]: s for s in event["servos"]}
+            for ws in list(self.pages):
+                servo = by_slot.get(self.selected.get(ws))
+                if servo is not None:
+                    self.relay(ws, json.dumps(dict(event, servos=[servo], partial=True), separators=(",", ":")))
+
     async def pump_events(self, events_reader):
-        """Relays telemetry and packets to every page until the emulator goes away."""
+        """Relays the whole telemetry and the packets to every page until the emulator goes
+        away."""
         while True:
             line = await events_reader.readline()
             if not line:
                 return
             text = line.decode().strip()
             if text.startswith('{"event":"telemetry"'):
-                self.relay_telemetry(text)
+                self.latest_line = text
+                for ws in list(self.pages):
+                    self.relay(ws, text)
             elif text.startswith('{"event":"packets"'):
                 self.batches.append(text)
                 for ws in list(self.pages):
@@ -118,20 +144,6 @@ class Emulator:
             asyncio.ensure_future(ws.close())
             asyncio.ensure_future(self.subscribe())
 
-    def relay_telemetry(self, text):
-        """Events with the control tables (TABLE_HZ) go to every page whole: its servo list and
-        table; the others (TELEMETRY_HZ) carry only the servo a page shows, for its charts."""
-        if '"table":[' in text:
-            self.latest_line = text
-            for ws in list(self.pages):
-                self.relay(ws, text)
-            return
-        event = json.loads(text)
-        by_slot = {s["slot"]: s for s in event["servos"]}
-        for ws in list(self.pages):
-            servo = by_slot.get(self.selected.get(ws))
-            if servo is not None:
-                self.relay(ws, json.dumps(dict(event, servos=[servo], partial=True), separators=(",", ":")))
 
 
 def servo_of(emu, slot):
@@ -206,6 +218,7 @@ async def answer(emu, ws, msg):
     kind = msg.get("type") if isinstance(msg, dict) else None
     if kind == "select":
         emu.selected[ws] = msg.get("slot")
+        await emu.subscribe()
         return None
     if kind == "monitor":  # the page's monitor came on screen (the last seconds first) or left it
         on = bool(msg.get("on"))
@@ -283,7 +296,7 @@ async def serve(args):
     deadline = time.monotonic() + 10.0
     while True:
         try:
-            events_reader = await emu.connect()
+            events_reader, charts_reader = await emu.connect()
             break
         except OSError as e:
             if time.monotonic() > deadline:
@@ -306,7 +319,9 @@ async def serve(args):
         log("cannot listen on %s:%d: %s" % (host, port, e.strerror or e))
         return 1
     print("listening http://%s:%d/" % (host if ":" not in host else "[%s]" % host, port), flush=True)
+    charts = asyncio.ensure_future(emu.pump_charts(charts_reader))
     await emu.pump_events(events_reader)  # until the emulator closes the socket
+    charts.cancel()
     for ws in list(emu.pages):
         await ws.close()
     await runner.cleanup()

@@ -10,7 +10,7 @@ const MONITOR_KEPT = 10000;     // packets kept
 const MONITOR_PERIOD_MS = 500;  // the monitor is redrawn at most this often
 const state = {
   ws: null, items: [], servos: [], selected: null, history: new Map(), charts: [], profile: "ax12",
-  packets: [], nextReq: 1, tableBuiltFor: null,
+  packets: [], nextReq: 1, tableBuiltFor: null, overview: null, overviewSlots: [], overviewHistory: null,
 };
 
 const $ = (id) => document.getElementById(id);
@@ -108,18 +108,61 @@ function buildCharts() {
   for (const def of CHARTS) {
     const holder = document.createElement("div");
     $("charts").append(holder);
+    // No cursor and a legend without live values: redrawn 20 times a second, a chart costs
+    // its canvas only.
     const opts = {
-      title: def.title, width: 430, height: 190,
+      title: def.title, width: 400, height: 170,
       scales: { x: { time: false } },
       axes: [{ label: "s (simulated)" }, {}],
-      series: [{ label: "t" }].concat(def.series.map(([label, , stroke]) => ({ label, stroke, width: 1.5 }))),
+      cursor: { show: false },
+      legend: { live: false },
+      series: [{ label: "t", show: false }].concat(def.series.map(([label, , stroke]) => ({ label, stroke, width: 1.5, points: { show: false } }))),
     };
     const plot = new uPlot(opts, [[], ...def.series.map(() => [])], holder);
     state.charts.push({ def, plot });
   }
 }
 
+// Present Position of every servo in one chart (one series per servo).
+function buildOverview(slots) {
+  state.overviewSlots = slots;
+  state.overviewHistory = { t: [], present: slots.map(() => []) };
+  const series = [{ label: "t" }].concat(slots.map((slot, i) => ({
+    label: String(slot), stroke: `hsl(${(i * 137) % 360}, 65%, 45%)`, width: 1.2, points: { show: false },
+  })));
+  const opts = {
+    title: "Present Position, every servo (counts)", width: 820, height: 170,
+    scales: { x: { time: false } }, axes: [{ label: "s (simulated)" }, {}], series,
+    cursor: { show: false }, legend: { show: slots.length <= 18, live: false },
+  };
+  state.overview = new uPlot(opts, [[], ...slots.map(() => [])], $("overview"));
+}
+
+// The overview's own history: every servo's Present Position at each whole event.
+function recordOverview(event) {
+  if (state.overview === null) buildOverview(event.servos.map((s) => s.slot));
+  const o = state.overviewHistory;
+  state.overviewDirty = true; // redrawn at the next frame, not at every event
+  o.t.push(event.time_us / 1e6);
+  state.overviewSlots.forEach((slot, i) => {
+    const s = event.servos.find((x) => x.slot === slot);
+    o.present[i].push(s && s.present_position !== undefined ? s.present_position : null);
+  });
+  while (o.t.length && o.t[0] < o.t[o.t.length - 1] - HISTORY_S) {
+    o.t.shift();
+    for (const p of o.present) p.shift();
+  }
+}
+
+function drawOverview() {
+  if (state.overview && state.overviewDirty) {
+    state.overviewDirty = false;
+    state.overview.setData([state.overviewHistory.t, ...state.overviewHistory.present]);
+  }
+}
+
 function drawCharts() {
+  drawOverview();
   const h = state.history.get(state.selected);
   if (!h) return;
   for (const { def, plot } of state.charts) {
@@ -322,10 +365,12 @@ function select(slot) {
 }
 
 // Events come whole (every servo, with control tables) 5 times a second, and with only the
-// servo shown ("partial") in between, 20 a second in all: the charts take each.
+// servo shown ("partial") in between, 20 a second in all: its charts take each; the list, the
+// table and the overview of every servo take the whole ones.
 function onTelemetry(event) {
   state.profile = event.profile;
   for (const s of event.servos) record(event.time_us / 1e6, s);
+  if (!event.partial) recordOverview(event);
   if (!state.drawPending) { // one chart redraw per frame at most, whatever the event rate
     state.drawPending = true;
     requestAnimationFrame(() => { state.drawPending = false; drawCharts(); });

@@ -156,6 +156,16 @@ static void handle_subscribe(emu_control_t *c, unsigned client, const cJSON *req
   }
   c->table_due_us[client] = 0.0;
   c->with_packets[client] = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(req, "packets"));
+  /* "servos": [slots]: telemetry of those servos only (a page's charts of the one it shows) */
+  const cJSON *slots = cJSON_GetObjectItemCaseSensitive(req, "servos");
+  c->filtered[client] = cJSON_IsArray(slots);
+  memset(c->only_slots[client], 0, sizeof(c->only_slots[client]));
+  const cJSON *slot;
+  cJSON_ArrayForEach(slot, slots) {
+    if (cJSON_IsNumber(slot) && slot->valuedouble >= 0 && slot->valuedouble < 256) {
+      c->only_slots[client][(int)slot->valuedouble] = true;
+    }
+  }
   emu_packet_stream_want(&c->packets, anyone_wants_packets(c));
   cJSON *reply = cJSON_CreateObject();
   cJSON_AddBoolToObject(reply, "ok", true);
@@ -184,7 +194,7 @@ static void push_telemetry(emu_control_t *c, double wall) {
         c->table_due_us[i] = wall + c->table_period_us[i];
       }
     }
-    send_json(c, i, emu_status_json(&c->servos, true, table));
+    send_json(c, i, emu_status_json(&c->servos, true, table, c->filtered[i] ? c->only_slots[i] : NULL));
   }
 }
 
@@ -220,7 +230,7 @@ static void on_line(void *ctx, control_socket_t *cs, unsigned client, char *line
     send_error(c, client, NULL, "a request is one JSON object with \"op\" per line");
   } else if (strcmp(op->valuestring, "status") == 0) {
     const bool table = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(req, "table"));
-    send_json(c, client, emu_status_json(&c->servos, false, table));
+    send_json(c, client, emu_status_json(&c->servos, false, table, NULL));
   } else if (strcmp(op->valuestring, "world") == 0) {
     char err[256];
     cJSON *answer = emu_world_request(&c->servos, req, err, sizeof err);

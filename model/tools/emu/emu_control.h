@@ -10,10 +10,11 @@
  *   {"op":"send","bytes":"FF FF 03 04 03 19 01 DB"}  a Protocol 1.0 packet onto the bus as a
  *                                              second master, once the bus is idle; the
  *                                              answer holds the servo's reply bytes
- *   {"op":"subscribe","telemetry_hz":25,"table":true,"packets":true}
+ *   {"op":"subscribe","telemetry_hz":25,"table":true,"packets":true,"servos":[3]}
  *                                              status lines pushed at that rate (1..100 Hz;
  *                                              0 stops), with the control tables ("table_hz":
- *                                              5 instead: in events at most that often) and, with "packets", every packet of
+ *                                              5 instead: in events at most that often),
+ *                                              of the servos listed ("servos", slot IDs) or all and, with "packets", every packet of
  *                                              the bus monitor (bus_monitor.h), in batches
  *                                              {"event":"packets","packets":[...]} at most
  *                                              PACKET_BATCH_PERIOD_US apart
@@ -48,6 +49,8 @@ typedef struct {
   double table_period_us[CONTROL_MAX_CLIENTS];
   double table_due_us[CONTROL_MAX_CLIENTS];
   bool with_packets[CONTROL_MAX_CLIENTS];
+  bool filtered[CONTROL_MAX_CLIENTS];       /* telemetry of only_slots[client] only */
+  bool only_slots[CONTROL_MAX_CLIENTS][256];
   double next_poll_us; /* wall clock */
 } emu_control_t;
 

@@ -83,7 +83,7 @@ static cJSON *servo_json(const emu_servos_t *v, size_t index, bool with_table) {
   return j;
 }
 
-cJSON *emu_status_json(const emu_servos_t *v, bool event, bool with_table) {
+cJSON *emu_status_json(const emu_servos_t *v, bool event, bool with_table, const bool *only_slots) {
   cJSON *j = cJSON_CreateObject();
   if (event) {
     cJSON_AddStringToObject(j, "event", "telemetry");
@@ -96,6 +96,9 @@ cJSON *emu_status_json(const emu_servos_t *v, bool event, bool with_table) {
   cJSON_AddStringToObject(j, "mcu", v->world->mcu);
   cJSON *servos = cJSON_AddArrayToObject(j, "servos");
   for (size_t i = 0; i < v->world->servo_count; i++) {
+    if (only_slots && !only_slots[v->slot_ids[i]]) {
+      continue;
+    }
     cJSON_AddItemToArray(servos, servo_json(v, i, with_table));
   }
   return j;

@@ -22,8 +22,9 @@ typedef struct {
 } emu_servos_t;
 
 /* The answer to "status" (event false: "ok", "op") or a "telemetry" event: the time, the
- * profile and MCU, every servo; with_table adds each control table. */
-cJSON *emu_status_json(const emu_servos_t *v, bool event, bool with_table);
+ * profile and MCU, every servo (only_slots not NULL: those whose --ids entry it marks, 256
+ * entries); with_table adds each control table. */
+cJSON *emu_status_json(const emu_servos_t *v, bool event, bool with_table, const bool *only_slots);
 
 /* A servo's world options as the protocol names them. */
 cJSON *emu_world_json(const plant_options_t *o);

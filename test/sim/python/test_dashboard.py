@@ -151,6 +151,9 @@ def test_the_dashboard_shows_edits_and_changes_the_world_of_a_live_bus(emulator,
 
         # The bus monitor: the page's WRITE as the control master's instruction and the servo's
         # answer, the SDK's packets as the client's; filtered by ID; exported as CSV.
+        # The monitor fills while it is on screen (docs/dashboard.md): scroll to it as a user would.
+        browser.execute_script("document.getElementById('monitor-scroll').scrollIntoView()")
+
         def edit_on_the_monitor():
             rows = monitor_rows(browser)
             writes = [r for r in rows if r[1] == "control" and r[2] == "3" and r[3] == "WRITE"]
@@ -168,6 +171,7 @@ def test_the_dashboard_shows_edits_and_changes_the_world_of_a_live_bus(emulator,
         assert any(",client,instruction,2,0x03,WRITE," in line for line in lines)
         browser.find_element(By.ID, "monitor-filter").clear()
         browser.execute_script("document.getElementById('monitor-filter').dispatchEvent(new Event('input'))")
+        browser.execute_script("window.scrollTo(0, 0)")
 
         # A bad world from the page changes nothing.
         browser.find_element(By.ID, "servo-row-2").click()
