@@ -119,7 +119,8 @@ function buildCharts() {
       series: [{ label: "t", show: false }].concat(def.series.map(([label, , stroke]) => ({ label, stroke, width: 1.5, points: { show: false } }))),
     };
     const plot = new uPlot(opts, [[], ...def.series.map(() => [])], holder);
-    state.charts.push({ def, plot });
+    state.charts.push({ def, plot, holder });
+    screenWatch.observe(holder);
   }
 }
 
@@ -136,6 +137,7 @@ function buildOverview(slots) {
     cursor: { show: false }, legend: { show: slots.length <= 18, live: false },
   };
   state.overview = new uPlot(opts, [[], ...slots.map(() => [])], $("overview"));
+  screenWatch.observe($("overview"));
 }
 
 // The overview's own history: every servo's Present Position at each whole event.
@@ -161,12 +163,23 @@ function drawOverview() {
   }
 }
 
+// Charts off screen are not drawn (their data are kept): a page scrolled to its list or
+// monitor costs no chart drawing.
+const onScreen = new Set();
+const screenWatch = new IntersectionObserver((entries) => {
+  for (const e of entries) {
+    if (e.isIntersecting) onScreen.add(e.target); else onScreen.delete(e.target);
+  }
+  state.overviewDirty = true;
+  drawCharts();
+});
+
 function drawCharts() {
-  drawOverview();
+  if (onScreen.has($("overview"))) drawOverview();
   const h = state.history.get(state.selected);
   if (!h) return;
-  for (const { def, plot } of state.charts) {
-    plot.setData([h.t, ...def.series.map(([, key]) => h[key])]);
+  for (const { def, plot, holder } of state.charts) {
+    if (onScreen.has(holder)) plot.setData([h.t, ...def.series.map(([, key]) => h[key])]);
   }
 }
 
