@@ -190,3 +190,38 @@ def test_real_avrdude_against_its_dryrun_programmer(mcu):
     assert run.returncode == 0, run.stderr
     for memory in ("flash", "lfuse", "hfuse", "efuse"):
         assert re.search(rf"{memory}\b.*verified", run.stderr), (memory, run.stderr[-2000:])
+
+
+@pytest.fixture
+def fake_programmer(request):
+    from fake_stk500 import FakeStk500
+    programmer = FakeStk500(request.param)
+    yield programmer
+    programmer.close()
+
+
+@pytest.mark.skipif(avrdude is None, reason="avrdude not installed (scripts/setup)")
+@pytest.mark.parametrize("fake_programmer", ["atmega88", "atmega328p"], indirect=True)
+def test_real_avrdude_against_a_simulated_programmer(fake_programmer):
+    """The real avrdude, run by flash-isp, against an STK500v1 programmer simulated on a
+    pseudo-terminal (test/board/fake_stk500.py) with its target part: it reads the HEX, erases,
+    writes and verifies the flash, and writes the fuses; then a second flash keeps the EEPROM
+    (EESAVE, now programmed) through the chip erase."""
+    from intelhex import IntelHex
+    mcu = "atmega88" if fake_programmer.signature[1] == 0x93 else "atmega328p"
+    run = flash_isp("--programmer", "stk500v1", "--port", fake_programmer.port, "--mcu", mcu)
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert "failed" not in run.stderr and "error" not in run.stderr, run.stderr[-3000:]
+    image = IntelHex(os.path.join(BUILD, "firmware", f"ax12-ax12-{mcu}.hex"))
+    written = bytes(fake_programmer.flash)
+    assert written[:len(image)] == image.tobinstr(start=0, size=len(image))
+    assert set(written[len(image):]) == {0xFF}
+    assert re.search(r"\d+ bytes of flash verified", run.stderr)
+    assert fake_programmer.erased == 1
+    assert fake_programmer.fuses == ax12_fuses.fuses(mcu)
+
+    fake_programmer.eeprom[:27] = bytes(range(27))  # settings saved by the firmware
+    run = flash_isp("--programmer", "stk500v1", "--port", fake_programmer.port, "--mcu", mcu, "--profile", "ax12a")
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert fake_programmer.erased == 2
+    assert bytes(fake_programmer.eeprom[:27]) == bytes(range(27)), "EESAVE: the settings survive a reflash"
