@@ -9,6 +9,8 @@
 #   AX12_FIRMWARE_PROFILES              ax12 ax12a
 #   AX12_FIRMWARE_ELF_<profile>_<mcu>   the path of one ELF
 #   AX12_FIRMWARE_ELFS                  all four paths
+#   AX12_FIRMWARE_HEX_<profile>_<mcu>   its flash image in Intel HEX, beside it
+#                                       (ax12-<profile>-<mcu>.hex, firmware/hex.cmake)
 #   target firmware                     builds all four (part of ALL); add_dependencies() on it
 #   targets firmware-<profile>-<mcu>    one each
 # Every build re-runs the four sub-builds (BUILD_ALWAYS: their sources are not known here),
@@ -18,6 +20,7 @@ include_guard(GLOBAL)
 include(ExternalProject)
 
 find_program(AX12_AVR_GCC avr-gcc)
+find_program(AX12_AVR_OBJCOPY avr-objcopy)
 if(NOT AX12_AVR_GCC)
   message(FATAL_ERROR "avr-gcc not found: install gcc-avr avr-libc binutils-avr, "
                       "or configure with -DAX12_BUILD_FIRMWARE=OFF")
@@ -42,9 +45,10 @@ foreach(mcu ${AX12_FIRMWARE_MCUS})
                  -DAX12_FIRMWARE_OUTPUT_DIR=${AX12_FIRMWARE_DIR}
       BUILD_ALWAYS ON
       INSTALL_COMMAND ""
-      BUILD_BYPRODUCTS ${elf})
+      BUILD_BYPRODUCTS ${elf} ${AX12_FIRMWARE_DIR}/ax12-${profile}-${mcu}.hex)
     add_dependencies(firmware firmware-${profile}-${mcu})
     set(AX12_FIRMWARE_ELF_${profile}_${mcu} ${elf})
+    set(AX12_FIRMWARE_HEX_${profile}_${mcu} ${AX12_FIRMWARE_DIR}/ax12-${profile}-${mcu}.hex)
     list(APPEND AX12_FIRMWARE_ELFS ${elf})
   endforeach()
 endforeach()
