@@ -1,6 +1,6 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """`ax12-emu serve --log-bus FILE.csv` and `scripts/ax12 replay` through the real path: a
-DynamixelSDK 4.1.0 session against the emulator in real time (ping, a goal, reads, a packet
+DynamixelSDK 4.1.0 run against the emulator in real time (ping, a goal, reads, a packet
 with a bad checksum written raw), its bus log checked row by row, then replayed against a fresh
 emulator (no difference, exit 0) and against the AX-12A profile, whose factory Highest Limit
 Temperature is 70 where the AX-12's is 85 (docs/policy.md: the READ's answer differs, exit
@@ -50,7 +50,7 @@ def rows_of(path):
 class HeldByThePty(Exception):
     """A reply the SDK gave up on: on a loaded machine the pty can hold a client's packet for
     tens of milliseconds and more ("pty limit", docs/emulator.md); the bus log shows it reaching
-    the wire late. Not what this test is about: the session is run again."""
+    the wire late. Not what this test is about: the run is made again."""
 
 
 def sdk_ok(result, what):
@@ -59,7 +59,7 @@ def sdk_ok(result, what):
     assert result == sdk.COMM_SUCCESS, what
 
 
-def session(device):
+def sdk_run(device):
     """What a user's program does, through DynamixelSDK; returns what it read."""
     port = sdk.PortHandler(device)
     assert port.openPort()
@@ -96,13 +96,13 @@ def session(device):
     return seen
 
 
-def recorded_session(emulator, folder, attempts=4):
-    """(bus log, what the session read) of the first session that ran whole."""
+def recorded_run(emulator, folder, attempts=4):
+    """(bus log, what the run read) of the first run that went whole."""
     for attempt in range(attempts):
         log = folder / ("bus%d.csv" % attempt)
         emu = emulator("--realtime", "--state-dir", str(folder / ("recorded%d" % attempt)), "--log-bus", str(log))
         try:
-            seen = session(emu.device)
+            seen = sdk_run(emu.device)
         except HeldByThePty:
             emu.stop()
             continue
@@ -111,12 +111,12 @@ def recorded_session(emulator, folder, attempts=4):
         assert len(rows_of(log)) == 16
         assert emu.stop() == 0
         return log, seen
-    raise AssertionError("the pty held a packet in every one of %d sessions" % attempts)
+    raise AssertionError("the pty held a packet in every one of %d runs" % attempts)
 
 
 def replay_on_fresh(emulator, folder, log, profile, label, attempts=3):
     """The replay of log against a fresh emulator of profile; run again (a fresh one) when the
-    pty held a packet past the replay's timeout: an answer missing (no answer of this session is
+    pty held a packet past the replay's timeout: an answer missing (no answer of this run is
     missing against either profile)."""
     for attempt in range(attempts):
         emu = emulator("--realtime", "--profile", profile, "--state-dir", str(folder / ("%s-%s%d" % (label, profile, attempt))))
@@ -134,12 +134,12 @@ def replay(log, device, *args):
     return proc
 
 
-def test_a_logged_sdk_session_replays_the_same_and_shows_another_profile(emulator, tmp_path, monkeypatch):
+def test_a_logged_sdk_run_replays_the_same_and_shows_another_profile(emulator, tmp_path, monkeypatch):
     # The SDK waits 2 x its LATENCY_TIMER + 2 ms for a reply; on a loaded machine the pty can hold
     # a packet longer ("pty limit", docs/emulator.md). Reply timing is not under test here: the
-    # SDK waits up to 202 ms, and a session that still times out is run again (HeldByThePty).
+    # SDK waits up to 202 ms, and a run that still times out is made again (HeldByThePty).
     monkeypatch.setattr(sdk_port, "LATENCY_TIMER", 100)
-    log, seen = recorded_session(emulator, tmp_path)
+    log, seen = recorded_run(emulator, tmp_path)
     assert seen["temperature_limit"] == 85
     assert seen["bad_checksum_reply"] == bytes([0xFF, 0xFF, 0x01, 0x02, T.ERR_CHECKSUM, 0xFC - T.ERR_CHECKSUM])
 
@@ -294,7 +294,7 @@ def test_the_log_shows_colliding_replies_and_keeps_a_cut_packet_at_exit(emulator
 
 
 def test_a_replay_on_a_deliberately_broken_firmware_build_reports_it(emulator, tmp_path):
-    """A session recorded raw (a PING, a broadcast READ, a READ) replays the same on the product
+    """A conversation recorded raw (a PING, a broadcast READ, a READ) replays the same on the product
     firmware and differs on a build with one deliberate defect: the test/conform build that
     answers a broadcast READ (AX12_CONFORM_DEFECT=BROADCAST_READ)."""
     import serial
