@@ -21,7 +21,6 @@ static double pty_cycles_per_bit(void *ctx) { return ((const pty_bridge_t *)ctx)
 static void pty_deliver(void *ctx, const bus_rx_t *rx) {
   pty_bridge_t *pty = ctx;
   if (pty->hidden) {
-    pty->hidden_from_client++;
     return;
   }
   if (pty->out_count == pty->out_cap) {

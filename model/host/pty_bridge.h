@@ -94,7 +94,6 @@ typedef struct {
   /* Another master (the dashboard's packets, emu_bus_master.h) wants or has the bus. */
   bool held;   /* pty_bridge_hold() */
   bool hidden; /* pty_bridge_hide() */
-  uint64_t hidden_from_client; /* bytes the bus carried while held, not shown to the client */
 } pty_bridge_t;
 
 /* Opens the pty (raw, initial speed initial_bps) behind the USB adapter `adapter` and joins

@@ -10,7 +10,7 @@ const MONITOR_KEPT = 10000;     // packets kept
 const MONITOR_PERIOD_MS = 500;  // the monitor is redrawn at most this often
 const state = {
   ws: null, items: [], servos: [], selected: null, history: new Map(), charts: [], profile: "ax12",
-  packets: [], nextReq: 1, tableBuiltFor: null, overview: null, overviewSlots: [], overviewHistory: null,
+  packets: [], nextReq: 1, overview: null, overviewSlots: [], overviewHistory: null,
 };
 
 const $ = (id) => document.getElementById(id);
@@ -218,7 +218,6 @@ function buildTable() {
     tr.append(td);
     body.append(tr);
   }
-  state.tableBuiltFor = state.selected;
 }
 
 function updateTable(s) {

@@ -110,7 +110,6 @@ void emu_bus_master_poll(emu_bus_master_t *m, emu_bus_master_done_fn done, void 
     const size_t n = master_rx_values(m->master, got, sizeof got);
     pty_bridge_hide(m->pty, false);
     m->sending = false;
-    m->exchanges++;
     const unsigned token = m->queue[m->queue_head].token;
     m->queue_head = (m->queue_head + 1u) % EMU_BUS_MASTER_QUEUE;
     m->queue_count--;

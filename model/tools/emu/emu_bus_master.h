@@ -47,7 +47,6 @@ typedef struct {
   size_t queue_head, queue_count;
   bool sending; /* queue[queue_head] is on the wire or awaiting its reply */
   sim_cycles_t request_end;
-  uint64_t exchanges;
 } emu_bus_master_t;
 
 /* Adds the master node to the world's bus, named "control", at the client's baud. -1 when the
