@@ -7,7 +7,8 @@
  * boot_record_build over the application's bytes; SPM takes 4 ms per page erase or write
  * with SPMEN and RWWSB as on silicon; the flash reaches servo-<n>.flash at the end of the
  * step of the write, survives destroying and recreating the servo, and is dropped (the file
- * removed) when the application is another build or the file is not a flash image. */
+ * removed) when the application is another build or the file is not a flash image; SPM from
+ * the application section does nothing. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -259,6 +260,20 @@ static void test_a_flash_file_that_is_no_image_of_the_mcu_is_dropped(void **stat
   harness_rmdir(dir);
 }
 
+static void test_spm_outside_the_boot_section_does_nothing(void **state) {
+  (void)state;
+  world_t *world = open_world(AX12_BOOT_APP2_ELF, NULL); /* build 2 writes a page from address 0's section */
+  servo_t *servo = add_servo(world, NULL);
+  world_run_until(world, sim_ms(1));
+  assert_int_equal(io(servo, GPIOR0_ADDR), 1); /* it tried, and SPMEN did not hang it */
+  assert_int_equal(servo->spm_page_ops, 0);
+  assert_true(servo->spm_ignored >= 1);
+  for (unsigned i = 0; i < PAGE_BYTES; i++) {
+    assert_int_equal(servo->avr->flash[TEST_PAGE + i], 0xFF);
+  }
+  world_destroy(world);
+}
+
 static void test_a_bootloader_outside_the_boot_section_is_refused(void **state) {
   (void)state;
   char err[512];
@@ -277,6 +292,7 @@ int main(void) {
       cmocka_unit_test(test_spm_takes_4_ms_per_page_with_spmen_and_rwwsb_as_on_silicon),
       cmocka_unit_test(test_a_flash_changed_by_spm_is_persisted_kept_and_dropped_for_another_build),
       cmocka_unit_test(test_a_flash_file_that_is_no_image_of_the_mcu_is_dropped),
+      cmocka_unit_test(test_spm_outside_the_boot_section_does_nothing),
       cmocka_unit_test(test_a_bootloader_outside_the_boot_section_is_refused),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
