@@ -94,6 +94,7 @@ static bool hash_seen(void) {
   uart_start(HASH_BAUD_REGISTER);
   uint8_t in_row = 0;
   while (now_ms < HASH_WINDOW_MS) {
+    wdt_reset();
     count_ms();
     if (UCSR0A & _BV(RXC0)) {
       const bool framing_error = (UCSR0A & _BV(FE0)) != 0;
@@ -163,6 +164,7 @@ __attribute__((noreturn)) static void serve(void) {
 int main(void) {
   const bool requested = boot_request_take();
   wdt_enable(WDTO_2S);
+  wdt_reset(); /* the new timeout counts from here (simavr 1.6 keeps the old one until a WDR) */
   TCCR0A = 0;
   TCCR0B = 0;
   PORTD &= (uint8_t)~(MOTOR_PINS | _BV(BUS_DIR_BIT));

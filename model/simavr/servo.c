@@ -110,6 +110,22 @@ bool servo_listening(const servo_t *servo) {
   return !servo->halted && avr_regbit_get(servo->avr, servo->board.link.uart->rxen);
 }
 
+/* By then a bootloader that has not started the application stays in it: its '#' window
+ * (30 ms) and its check of the largest application (30 KB at about 30 cycles a byte, 60 ms),
+ * with a margin. */
+#define BOOT_WINDOW_DONE_MS 150u
+
+bool servo_ready_for_clients(const servo_t *servo, sim_cycles_t now) {
+  if (!servo_listening(servo)) {
+    return false;
+  }
+  const avr_t *avr = servo->avr;
+  if (avr->reset_pc == 0 || avr->pc < avr->reset_pc) {
+    return true; /* no bootloader, or the application runs */
+  }
+  return now >= sim_ms(BOOT_WINDOW_DONE_MS);
+}
+
 void servo_reset(servo_t *servo) {
   avr_reset(servo->avr);
   servo->halted = false;

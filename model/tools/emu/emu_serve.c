@@ -382,13 +382,13 @@ int emu_serve(const serve_options_t *o) {
   pacing_start(&pacing, o->realtime, world->now);
   const sim_cycles_t slice = sim_us(SLICE_US);
 
-  /* Boot: until every servo listens on the bus. */
+  /* Boot: until every servo listens on the bus (its application, when a bootloader runs first). */
   bool booted = false;
   while (!stop_requested && world->now < sim_ms(BOOT_LIMIT_MS)) {
     debug_wait_while_held(&debug, world, &pacing);
     booted = true;
     for (size_t i = 0; i < world->servo_count; i++) {
-      booted &= servo_listening(world->servos[i]);
+      booted &= servo_ready_for_clients(world->servos[i], world->now);
     }
     if (booted) {
       break;
