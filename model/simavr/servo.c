@@ -115,7 +115,7 @@ bool servo_listening(const servo_t *servo) {
  * with a margin. */
 #define BOOT_WINDOW_DONE_MS 150u
 
-bool servo_ready_for_clients(const servo_t *servo, sim_cycles_t now) {
+bool servo_ready_for_clients(const servo_t *servo, sim_cycles_t since_power_up) {
   if (!servo_listening(servo)) {
     return false;
   }
@@ -123,7 +123,7 @@ bool servo_ready_for_clients(const servo_t *servo, sim_cycles_t now) {
   if (avr->reset_pc == 0 || avr->pc < avr->reset_pc) {
     return true; /* no bootloader, or the application runs */
   }
-  return now >= sim_ms(BOOT_WINDOW_DONE_MS);
+  return since_power_up >= sim_ms(BOOT_WINDOW_DONE_MS);
 }
 
 void servo_reset(servo_t *servo) {

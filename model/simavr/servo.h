@@ -141,10 +141,10 @@ void servo_destroy(servo_t *servo);
 /* True once the firmware has enabled the USART receiver (it can hear the bus). */
 bool servo_listening(const servo_t *servo);
 
-/* True once a client can talk to the servo (now: simulated time since power-up): it listens,
+/* True once a client can talk to the servo (since_power_up: simulated time): it listens,
  * and if a bootloader runs first, the application does, or the bootloader has stayed (no valid
  * application) past its '#' window at 57 600 baud (docs/bootloader.md "At reset"). */
-bool servo_ready_for_clients(const servo_t *servo, sim_cycles_t now);
+bool servo_ready_for_clients(const servo_t *servo, sim_cycles_t since_power_up);
 
 /* Pulls the MCU's reset line (as the watchdog would): RAM, I/O and the USART restart,
  * the EEPROM stays. */

@@ -83,11 +83,12 @@ servo_t *harness_add_servo(harness_t *h, uint8_t id, uint8_t baud_reg, const cha
 }
 
 void harness_boot(harness_t *h, unsigned settle_ms) {
+  const sim_cycles_t powered_at = h->world->now;
   const sim_cycles_t limit = h->world->now + sim_ms(1000);
   for (;;) {
     bool all = true;
     for (size_t i = 0; i < h->world->servo_count; i++) {
-      all &= servo_listening(h->world->servos[i]);
+      all &= servo_ready_for_clients(h->world->servos[i], h->world->now - powered_at);
     }
     if (all) {
       break;

@@ -53,7 +53,8 @@ void harness_close(harness_t *h);
 /* Adds a servo for slot id (state file in state_dir when not NULL) and returns it. */
 servo_t *harness_add_servo(harness_t *h, uint8_t id, uint8_t baud_reg, const char *state_dir);
 
-/* Runs until every servo listens, plus settle_ms (power-up work). Fails after 1 s. */
+/* Runs until every servo listens (servo_ready_for_clients: its application, when a bootloader
+ * runs first), plus settle_ms (power-up work). Call right after power-up. Fails after 1 s. */
 void harness_boot(harness_t *h, unsigned settle_ms);
 
 /* Every servo's MCU restarts (EEPROM kept, RAM not), then boots; the EEPROM writes under way
