@@ -11,7 +11,6 @@
   emulator restarted on the same state folder answers INFO as a bootloader with the
   application not valid, and a new update completes. Cut between END and GO: the record is
   written, so the reset starts the new application, and a new update completes too.
-
 - A HEX with a flipped data byte (its record checksum then wrong) or cut short: refused, and
   nothing reaches the bus.
 
@@ -25,8 +24,8 @@ import os
 import signal
 import subprocess
 import sys
-import tempfile
 import shutil
+import tempfile
 from pathlib import Path
 
 import pytest
