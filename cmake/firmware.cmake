@@ -11,8 +11,9 @@
 #   AX12_FIRMWARE_ELFS                  all four paths
 #   AX12_FIRMWARE_HEX_<profile>_<mcu>   its flash image in Intel HEX, beside it
 #                                       (ax12-<profile>-<mcu>.hex, firmware/hex.cmake)
-#   AX12_FIRMWARE_BOOT_HEX_atmega328p   the bootloader's HEX (ax12-boot-atmega328p.hex, from
-#                                       the ATmega328P sub-builds)
+#   AX12_FIRMWARE_BOOT_MCUS             the parts with a bootloader (atmega328p)
+#   AX12_FIRMWARE_BOOT_ELF_<mcu>, AX12_FIRMWARE_BOOT_HEX_<mcu>
+#                                       its ELF and HEX (ax12-boot-<mcu>.elf/.hex)
 #   AX12_FIRMWARE_MERGED_HEX_<profile>_atmega328p
 #                                       the whole flash of a new board: application, its
 #                                       record page and the bootloader
@@ -40,9 +41,19 @@ set(AX12_FIRMWARE_PROFILES ax12 ax12a)
 set(AX12_FIRMWARE_ELFS "")
 
 add_custom_target(firmware ALL COMMENT "AVR firmware: ${AX12_FIRMWARE_DIR}")
+# Parts that carry the bootloader (docs/bootloader.md); built once, in the ax12 profile's project.
+set(AX12_FIRMWARE_BOOT_MCUS atmega328p)
 foreach(mcu ${AX12_FIRMWARE_MCUS})
   foreach(profile ${AX12_FIRMWARE_PROFILES})
     set(elf ${AX12_FIRMWARE_DIR}/ax12-${profile}-${mcu}.elf)
+    set(boot_args "")
+    set(boot_products "")
+    if(profile STREQUAL "ax12" AND mcu IN_LIST AX12_FIRMWARE_BOOT_MCUS)
+      set(boot_args -DAX12_FIRMWARE_BOOTLOADER=ON)
+      set(AX12_FIRMWARE_BOOT_ELF_${mcu} ${AX12_FIRMWARE_DIR}/ax12-boot-${mcu}.elf)
+      set(AX12_FIRMWARE_BOOT_HEX_${mcu} ${AX12_FIRMWARE_DIR}/ax12-boot-${mcu}.hex)
+      set(boot_products ${AX12_FIRMWARE_BOOT_ELF_${mcu}} ${AX12_FIRMWARE_BOOT_HEX_${mcu}})
+    endif()
     ExternalProject_Add(firmware-${profile}-${mcu}
       SOURCE_DIR ${ax12_repo_dir}/firmware
       BINARY_DIR ${CMAKE_BINARY_DIR}/firmware-build/${profile}-${mcu}
@@ -50,9 +61,10 @@ foreach(mcu ${AX12_FIRMWARE_MCUS})
                  -DAVR_MCU=${mcu}
                  -DDXL_PROFILE_NAME=${profile}
                  -DAX12_FIRMWARE_OUTPUT_DIR=${AX12_FIRMWARE_DIR}
+                 ${boot_args}
       BUILD_ALWAYS ON
       INSTALL_COMMAND ""
-      BUILD_BYPRODUCTS ${elf} ${AX12_FIRMWARE_DIR}/ax12-${profile}-${mcu}.hex)
+      BUILD_BYPRODUCTS ${elf} ${AX12_FIRMWARE_DIR}/ax12-${profile}-${mcu}.hex ${boot_products})
     add_dependencies(firmware firmware-${profile}-${mcu})
     set(AX12_FIRMWARE_ELF_${profile}_${mcu} ${elf})
     set(AX12_FIRMWARE_HEX_${profile}_${mcu} ${AX12_FIRMWARE_DIR}/ax12-${profile}-${mcu}.hex)
@@ -62,11 +74,10 @@ endforeach()
 
 # The merged HEX of each ATmega328P application (docs/bootloader.md "Flash layout"), by
 # scripts/ax12_merge_hex.py with the project's Python (scripts/setup's .venv: intelhex). Run
-# on every build after the ATmega328P sub-builds (which write the bootloader's HEX too); it
-# rewrites a merged HEX only when its bytes change, and writes none while the bootloader's HEX
-# does not exist.
+# on every build after the ATmega328P sub-builds (one of which writes the bootloader's HEX);
+# it rewrites a merged HEX only when its bytes change, and writes none while the bootloader's
+# HEX does not exist.
 set(ax12_python ${ax12_repo_dir}/.venv/bin/python)
-set(AX12_FIRMWARE_BOOT_HEX_atmega328p ${AX12_FIRMWARE_DIR}/ax12-boot-atmega328p.hex)
 add_custom_target(firmware-merged-hex COMMENT "merged HEX: application + record + bootloader (ATmega328P)")
 foreach(profile ${AX12_FIRMWARE_PROFILES})
   set(AX12_FIRMWARE_MERGED_HEX_${profile}_atmega328p ${AX12_FIRMWARE_DIR}/ax12-${profile}-atmega328p-merged.hex)

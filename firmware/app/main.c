@@ -41,6 +41,9 @@
 #include "nvm.h"
 #include "timebase.h"
 #include "uart.h"
+#if DXL_HAS_BOOTLOADER
+#include "boot_request.h"
+#endif
 
 /* Power-up blink (docs/policy.md "Power-up"): on-off twice, BOOT_BLINK_MS each phase. */
 #define BOOT_BLINK_MS 100u
@@ -109,6 +112,20 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
   (void)port;
   uart_set_baud(baud_register);
 }
+
+#if DXL_HAS_BOOTLOADER
+/* The settings' store finishes first (a few bytes of 3.4 ms each), so the bootloader finds
+ * them whole; the motor coasts. */
+void dxl_after_port_enter_bootloader(void *port) {
+  (void)port;
+  while (nvm_busy()) {
+    board_watchdog_kick();
+    nvm_service();
+  }
+  motor_set_drive(0);
+  boot_request_enter();
+}
+#endif
 
 /* Starts the prepared (or rejected) packet's reply, its bytes final once prepared; what must
  * follow its end (dxl_after.h) is kept for service_reply(). */

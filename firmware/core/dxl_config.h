@@ -13,6 +13,12 @@
 #error "DXL_PROFILE must be DXL_PROFILE_AX12 or DXL_PROFILE_AX12A"
 #endif
 
+/* 1 when the firmware sits beside the bootloader (docs/bootloader.md): it then takes the
+ * instruction that enters it (DXL_INST_BOOTLOADER). The ATmega328P builds; 0 elsewhere. */
+#ifndef DXL_HAS_BOOTLOADER
+#define DXL_HAS_BOOTLOADER 0
+#endif
+
 /* This firmware's own version number, reported at address 2. */
 #define DXL_FIRMWARE_VERSION 1
 

@@ -14,6 +14,13 @@
 #define DXL_INST_ACTION 0x05u
 #define DXL_INST_RESET 0x06u
 #define DXL_INST_SYNC_WRITE 0x83u
+/* Enters the bootloader (docs/bootloader.md), only with the 4 parameters "BOOT" and only in a
+ * build with a bootloader (DXL_HAS_BOOTLOADER); otherwise an unknown instruction. */
+#define DXL_INST_BOOTLOADER 0x0Au
+#define DXL_BOOTLOADER_KEY_0 0x42u /* 'B' */
+#define DXL_BOOTLOADER_KEY_1 0x4Fu /* 'O' */
+#define DXL_BOOTLOADER_KEY_2 0x4Fu /* 'O' */
+#define DXL_BOOTLOADER_KEY_3 0x54u /* 'T' */
 
 /* Error byte of a status packet (docs/policy.md "Error byte"). Conditions hold in every reply while
  * true; events appear only in the reply to the offending packet. */

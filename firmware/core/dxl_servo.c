@@ -39,6 +39,9 @@
 static uint8_t min_status_level(uint8_t instruction) {
   switch (instruction) {
   case DXL_INST_PING:
+#if DXL_HAS_BOOTLOADER
+  case DXL_INST_BOOTLOADER: /* answered as a PING: the flasher must know it was heard */
+#endif
     return 0;
   case DXL_INST_READ:
     return 1;
@@ -212,6 +215,15 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
     /* Validated at REG_WRITE; checked again in case Lock or the limits changed since (a
      * refusal is a Range Error, the only error ct_check_write() returns). */
     return plan_checked_write(s, r, DXL_ACTION_RUN_REGISTERED, s->reg_start, s->reg_data, s->reg_len);
+#if DXL_HAS_BOOTLOADER
+  case DXL_INST_BOOTLOADER:
+    if (broadcast || count != 4u || params[0] != DXL_BOOTLOADER_KEY_0 || params[1] != DXL_BOOTLOADER_KEY_1 ||
+        params[2] != DXL_BOOTLOADER_KEY_2 || params[3] != DXL_BOOTLOADER_KEY_3) {
+      break;
+    }
+    r->after |= DXL_AFTER_BOOTLOADER;
+    return 0;
+#endif
   case DXL_INST_RESET:
     if (count != 0) {
       break;

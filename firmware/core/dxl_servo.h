@@ -30,6 +30,7 @@
 #define DXL_AFTER_FACTORY_RESET 0x01u /* call dxl_servo_factory_reset() */
 #define DXL_AFTER_APPLY_BAUD 0x02u    /* reprogram the UART from the Baud Rate register */
 #define DXL_AFTER_PERSIST 0x04u       /* the EEPROM area (0..23) changed: persist it */
+#define DXL_AFTER_BOOTLOADER 0x08u    /* enter the bootloader (DXL_INST_BOOTLOADER) */
 
 /* What a prepared packet will do when committed. */
 typedef enum {

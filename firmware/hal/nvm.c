@@ -56,6 +56,8 @@ void nvm_persist(const uint8_t *eeprom_area) {
 
 bool nvm_work_ready(void) { return steps_left != 0 && eeprom_is_ready(); }
 
+bool nvm_busy(void) { return steps_left != 0 || !eeprom_is_ready(); }
+
 void nvm_service(void) {
   while (nvm_work_ready()) {
     const uint8_t offset = dxl_image_write_offset((uint8_t)(DXL_IMAGE_SLOT_BYTES - steps_left--));

@@ -29,6 +29,9 @@ void nvm_persist(const uint8_t *eeprom_area);
 /* True when nvm_service() has a byte to look at now (the sleep test). */
 bool nvm_work_ready(void);
 
+/* True while a store is under way: bytes left to compare, or the last one still being written. */
+bool nvm_busy(void);
+
 /* Writes the next differing byte if the EEPROM is ready. */
 void nvm_service(void);
 

@@ -19,4 +19,9 @@ void dxl_after_reply(dxl_servo_t *servo, uint8_t after, void *port) {
   if (after & DXL_AFTER_APPLY_BAUD) {
     dxl_after_port_set_baud(port, servo->table[CT_ADDR_BAUD_RATE]);
   }
+#if DXL_HAS_BOOTLOADER
+  if (after & DXL_AFTER_BOOTLOADER) {
+    dxl_after_port_enter_bootloader(port);
+  }
+#endif
 }

@@ -24,14 +24,16 @@
  * packet whose after is otherwise (nothing, or only a store) can be answered and committed in
  * any order. */
 static inline bool dxl_after_waits_for_reply(uint8_t after) {
-  return (after & (DXL_AFTER_FACTORY_RESET | DXL_AFTER_APPLY_BAUD)) != 0;
+  return (after & (DXL_AFTER_FACTORY_RESET | DXL_AFTER_APPLY_BAUD | DXL_AFTER_BOOTLOADER)) != 0;
 }
 
 /* Right after dxl_servo_commit(): starts storing the EEPROM area when the packet wrote it
  * (RESET stores its defaults after the reply instead). */
 void dxl_after_commit(const dxl_servo_t *servo, uint8_t after, void *port);
 
-/* What follows the reply: factory reset (then stored), then the new baud. */
+/* What follows the reply: factory reset (then stored), then the new baud; or, for
+ * DXL_INST_BOOTLOADER, the bootloader (the port's job: it waits for any store under way and
+ * does not return). */
 void dxl_after_reply(dxl_servo_t *servo, uint8_t after, void *port);
 
 #endif

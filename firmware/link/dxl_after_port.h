@@ -6,10 +6,18 @@
 
 #include <stdint.h>
 
+#include "dxl_config.h"
+
 /* Starts storing the EEPROM area of table (CT_EEPROM_SIZE bytes, copied at once). */
 void dxl_after_port_persist(void *port, const uint8_t *table);
 
 /* Reprograms the UART from a Baud Rate register value; the bus is idle. */
 void dxl_after_port_set_baud(void *port, uint8_t baud_register);
+
+#if DXL_HAS_BOOTLOADER
+/* Enters the bootloader once any store of the settings under way has finished; the bus is
+ * idle. On the board it does not return. */
+void dxl_after_port_enter_bootloader(void *port);
+#endif
 
 #endif

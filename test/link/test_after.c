@@ -41,6 +41,10 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
   log_event(port, text);
 }
 
+#if DXL_HAS_BOOTLOADER
+void dxl_after_port_enter_bootloader(void *port) { log_event(port, "bootloader "); }
+#endif
+
 /* A packet to servo 1 handled as the main loop does (firmware/app/main.c on_packet,
  * service_reply): prepared, its reply started (when there is one), committed, then what must
  * wait for the reply's end. Returns the response. */
@@ -145,8 +149,72 @@ static void test_an_action_that_runs_a_registered_eeprom_write_stores_it_as_a_wr
   assert_string_equal(port.log, "reply end reply store end ");
 }
 
+static const uint8_t boot_key[4] = {'B', 'O', 'O', 'T'};
+
+#if DXL_HAS_BOOTLOADER
+/* docs/bootloader.md "Entering from the application": answered like a PING, at every Status
+ * Return Level, then the bootloader, after the reply's end. */
+static void test_the_bootloader_instruction_is_answered_then_enters_the_bootloader(void **state) {
+  (void)state;
+  dxl_servo_t servo;
+  port_t port;
+  given_servo(&servo, &port);
+  servo.table[CT_ADDR_STATUS_RETURN_LEVEL] = 0;
+  const dxl_response_t r = handled(&servo, &port, DXL_INST_BOOTLOADER, boot_key, 4);
+  assert_string_equal(port.log, "reply end bootloader ");
+  assert_int_equal(r.length, 6);
+  assert_int_equal(r.bytes[4], 0);
+  assert_true(dxl_after_waits_for_reply(r.after));
+}
+
+/* A pending store of the settings is started before the bootloader is asked for (the port then
+ * waits for it to finish: firmware/app/main.c). */
+static void test_a_store_under_way_comes_before_the_bootloader(void **state) {
+  (void)state;
+  dxl_servo_t servo;
+  port_t port;
+  given_servo(&servo, &port);
+  handled(&servo, &port, DXL_INST_WRITE, (const uint8_t[]){CT_ADDR_ID, 9}, 2);
+  const dxl_packet_t packet = {9, DXL_INST_BOOTLOADER, 4, boot_key, 0};
+  dxl_response_t response;
+  dxl_servo_prepare(&servo, &packet, &response);
+  dxl_servo_commit(&servo, &response);
+  dxl_after_commit(&servo, response.after, &port);
+  dxl_after_reply(&servo, response.after, &port);
+  assert_string_equal(port.log, "reply store end bootloader ");
+}
+#endif
+
+/* Without the key, to broadcast, or in a build without a bootloader: an unknown instruction. */
+static void test_the_bootloader_instruction_needs_its_key_and_an_id(void **state) {
+  (void)state;
+  dxl_servo_t servo;
+  port_t port;
+  given_servo(&servo, &port);
+  const uint8_t wrong_key[4] = {'B', 'O', 'O', 'X'};
+  dxl_response_t r = handled(&servo, &port, DXL_INST_BOOTLOADER, wrong_key, 4);
+  assert_int_equal(r.bytes[4], DXL_ERR_INSTRUCTION);
+  r = handled(&servo, &port, DXL_INST_BOOTLOADER, boot_key, 3);
+  assert_int_equal(r.bytes[4], DXL_ERR_INSTRUCTION);
+  r = handled(&servo, &port, DXL_INST_BOOTLOADER, NULL, 0);
+  assert_int_equal(r.bytes[4], DXL_ERR_INSTRUCTION);
+  const dxl_packet_t broadcast = {DXL_ID_BROADCAST, DXL_INST_BOOTLOADER, 4, boot_key, 0};
+  dxl_servo_prepare(&servo, &broadcast, &r);
+  assert_int_equal(r.length, 0);
+  assert_int_equal(r.after, 0);
+  r = handled(&servo, &port, DXL_INST_BOOTLOADER, boot_key, 4);
+  assert_int_equal(r.bytes[4], DXL_HAS_BOOTLOADER ? 0 : DXL_ERR_INSTRUCTION);
+  assert_string_equal(port.log, DXL_HAS_BOOTLOADER ? "reply end reply end reply end reply end bootloader "
+                                                   : "reply end reply end reply end reply end ");
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
+#if DXL_HAS_BOOTLOADER
+      cmocka_unit_test(test_the_bootloader_instruction_is_answered_then_enters_the_bootloader),
+      cmocka_unit_test(test_a_store_under_way_comes_before_the_bootloader),
+#endif
+      cmocka_unit_test(test_the_bootloader_instruction_needs_its_key_and_an_id),
       cmocka_unit_test(test_a_write_of_the_eeprom_area_is_answered_then_stored_while_the_reply_goes_out),
       cmocka_unit_test(test_a_new_id_is_stored_and_the_reply_still_carries_the_old_one),
       cmocka_unit_test(test_a_new_baud_is_stored_at_once_and_applied_after_the_reply),
