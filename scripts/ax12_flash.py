@@ -153,21 +153,38 @@ def write_image(client, image, info, verify, image_module):
     progress.finish()
 
 
-def check_application(client, boot):
-    """(Model Number, Firmware Version) of the started application."""
+STILL_IN_BOOTLOADER = "still in the bootloader"
+
+
+def application_answer(client, boot):
+    """(Model Number, Firmware Version) of the application once it answers PING and a READ of
+    them; (None, None) when it answers PING but never the READ (Status Return Level 0);
+    STILL_IN_BOOTLOADER when the READ is answered with Instruction Error."""
     deadline = time.monotonic() + START_TIMEOUT_S
     while client.ping() is None:
         if time.monotonic() > deadline:
             raise boot.BootError(f"servo {client.ident} does not answer PING after GO")
-    while True:
+    while time.monotonic() <= deadline:
         answer = client.application_read(MODEL_NUMBER_ADDRESS, MODEL_BYTES)
         if answer is not None and answer.code & boot.ERR_INSTRUCTION:
-            raise boot.BootError(f"servo {client.ident} is still in its bootloader after GO")
+            return STILL_IN_BOOTLOADER
         if answer is not None and not answer.code and len(answer.params) == MODEL_BYTES:
             return answer.params[0] | (answer.params[1] << 8), answer.params[2]
-        if time.monotonic() > deadline:
-            raise boot.BootError(f"servo {client.ident}'s application does not answer a READ of its "
-                                 f"Model Number after GO")
+    info = client.info()
+    if info is not None and boot.parse_info(info.params):
+        return STILL_IN_BOOTLOADER
+    return None, None
+
+
+def start_application(client, boot, retries):
+    """GO, then what application_answer finds; GO is sent again (up to retries more times)
+    while the servo is still in its bootloader, as after a lost GO."""
+    for _ in range(retries + 1):
+        client.go()
+        result = application_answer(client, boot)
+        if result != STILL_IN_BOOTLOADER:
+            return result
+    raise boot.BootError(f"servo {client.ident} is still in its bootloader after GO ({retries + 1} attempts)")
 
 
 def main(argv=None, open_port=open_serial):
@@ -193,8 +210,7 @@ def main(argv=None, open_port=open_serial):
             f"{'valid' if info.state & boot.STATE_APP_VALID else 'not valid'}")
         image.check_target(mcu, info.app_area_bytes, info.page_bytes)
         write_image(client, image, info, not args.no_verify, image_module)
-        client.go()
-        model, version = check_application(client, boot)
+        model, version = start_application(client, boot, args.retries)
     except (image_module.ImageError, BadInput) as error:
         say(str(error))
         return EXIT_BAD_INPUT
@@ -205,9 +221,10 @@ def main(argv=None, open_port=open_serial):
         if port is not None:
             port.close()
     pages = len(image.pages(info.page_bytes))
+    started = (f"Model Number {model}, Firmware Version {version}" if model is not None
+               else "it answers PING, not READ (Status Return Level 0)")
     print(f"servo {args.ident}: {os.path.basename(args.firmware)} written ({len(image.data)} B, {pages} pages)"
-          f"{', verified' if not args.no_verify else ', not verified'}; the application runs: "
-          f"Model Number {model}, Firmware Version {version}")
+          f"{', verified' if not args.no_verify else ', not verified'}; the application runs: {started}")
     return EXIT_DONE
 
 

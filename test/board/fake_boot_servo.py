@@ -5,9 +5,10 @@ servo answers as docs/bootloader.md says its bootloader does, or as its applicat
 (PING, READ DATA of the Model Number, 0x0A "BOOT"; anything else an Instruction Error).
 
 Faults, to see the tool's retries and messages: fault(instruction, kind, times) makes the next
-`times` requests of that instruction (from its `after`-th on) lose their answer ("drop"), get
-an answer with a wrong checksum ("checksum"), or an error byte (an int); `silent` answers
-nothing at all; `other_id_first` sends a status packet of another ID before every answer;
+`times` requests of that instruction (from its `after`-th on) never reach the servo ("lost"),
+lose their answer ("drop"), get an answer with a wrong checksum ("checksum"), or an error byte
+(an int); `silent` answers nothing at all; `status_return_level` 0 makes the application
+answer PING only; `other_id_first` sends a status packet of another ID before every answer;
 `read_flip` flips one byte of the READ answers at that flash address.
 
 Every request is recorded in `requests` as (instruction, params).
@@ -32,6 +33,7 @@ class FakeBootServo:
         self.silent = False
         self.other_id_first = False
         self.stays_after_go = False
+        self.status_return_level = 2
         self.read_flip = None
         self.faults = []  # [instruction, kind, after, times]
         self.requests = []
@@ -66,7 +68,9 @@ class FakeBootServo:
             del self._in[:size]
             if packet is not None and packet.checksum_ok and packet.ident == self.ident:
                 self.requests.append((packet.code, bytes(packet.params)))
-                self._answer(packet.code, bytes(packet.params))
+                self._fault = self._fault_for(packet.code)
+                if self._fault != "lost":
+                    self._answer(packet.code, bytes(packet.params))
         return len(data)
 
     def read(self, count):
@@ -86,7 +90,7 @@ class FakeBootServo:
     def _send(self, error, params=b""):
         if self.silent:
             return
-        fault = self._fault_for(self._current)
+        fault = self._fault
         if fault == "drop":
             return
         if isinstance(fault, int):
@@ -99,13 +103,16 @@ class FakeBootServo:
         self._out += packet
 
     def _answer(self, instruction, params):
-        self._current = instruction
         if self.mode == "app":
             self._answer_as_application(instruction, params)
         else:
             self._answer_as_bootloader(instruction, params)
 
     def _answer_as_application(self, instruction, params):
+        if self.status_return_level == 0 and instruction != PING:
+            if instruction == BOOT and params == b"BOOT" and self.knows_boot:
+                self.mode = "boot"
+            return
         if instruction == PING:
             self._send(0)
         elif instruction == READ_DATA and params == b"\x00\x03":

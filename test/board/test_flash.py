@@ -21,7 +21,7 @@ ax12_build.ensure(os.path.join(REPO, "build"))
 
 import ax12_app_image  # noqa: E402
 import ax12_flash  # noqa: E402
-from fake_boot_servo import BEGIN, BOOT, END, GO, INFO, PAGE, READ, FakeBootServo  # noqa: E402
+from fake_boot_servo import BEGIN, BOOT, END, GO, INFO, PAGE, PING, READ, FakeBootServo  # noqa: E402
 
 FIRMWARE_DIR = os.environ.get("AX12_FIRMWARE_DIR") or os.path.join(REPO, "build", "firmware")
 HEX_328P = os.path.join(FIRMWARE_DIR, "ax12-ax12a-atmega328p.hex")
@@ -135,6 +135,15 @@ def test_a_range_error_is_not_retried(capsys):
     assert instructions(servo).count(PAGE) == 1
 
 
+def test_an_image_crc_mismatch_at_end_is_an_error_and_no_go(capsys):
+    servo = FakeBootServo()
+    servo.fault(END, 0x10)
+    code, _ = flash(servo)
+    assert code == 1
+    assert "END: servo 2 answered with CRC does not match" in capsys.readouterr().err
+    assert instructions(servo).count(END) == 1 and GO not in instructions(servo)
+
+
 def test_status_packets_of_other_ids_are_ignored(capsys):
     servo = FakeBootServo()
     servo.other_id_first = True
@@ -167,6 +176,25 @@ def test_a_servo_still_in_its_bootloader_after_go_is_an_error(capsys):
     code, _ = flash(servo)
     assert code == 1
     assert "still in its bootloader after GO" in capsys.readouterr().err
+
+
+def test_a_lost_go_is_sent_again(capsys):
+    servo = FakeBootServo()
+    servo.fault(GO, "lost")
+    code, _ = flash(servo)
+    assert code == 0, capsys.readouterr().err
+    assert instructions(servo).count(GO) == 2 and servo.mode == "app"
+
+
+def test_an_application_at_status_return_level_0_is_asked_in_and_started(capsys):
+    servo = FakeBootServo(mode="app")
+    servo.status_return_level = 0
+    code, _ = flash(servo)
+    out, err = capsys.readouterr()
+    assert code == 0, err
+    assert instructions(servo)[:6] == [INFO, INFO, PING, BOOT, INFO, BEGIN]
+    assert_written(servo)
+    assert "it answers PING, not READ (Status Return Level 0)" in out
 
 
 def test_an_image_for_the_other_part_is_refused_before_begin(capsys):

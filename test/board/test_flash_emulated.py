@@ -122,7 +122,8 @@ def assert_runs(device, ident, profile):
     model_low, model_high, version = read(device, ident, T.MODEL_NUMBER, 3)
     assert model_low | (model_high << 8) == getattr(ITEM["MODEL_NUMBER"], f"default_{profile}")
     assert version == getattr(ITEM["FIRMWARE_VERSION"], f"default_{profile}")
-    assert read(device, ident, T.CW_COMPLIANCE_MARGIN, 1) == [getattr(ITEM["CW_COMPLIANCE_MARGIN"], f"default_{profile}")]
+    margin = getattr(ITEM["CW_COMPLIANCE_MARGIN"], f"default_{profile}")
+    assert read(device, ident, T.CW_COMPLIANCE_MARGIN, 1) == [margin], "the profile's power-up value"
     assert read(device, ident, T.ID, 2) == [ident, 1], "ID and Baud Rate kept"
 
 
@@ -147,9 +148,9 @@ def test_update_over_the_bus_changes_one_servo_only(serve, state_dir):
     emu.stop()
 
     rows = bus_rows(log)
+    bootloader_instructions = (boot.INFO, boot.BEGIN, boot.PAGE, boot.END, boot.READ, boot.GO, boot.BOOT)
     sent_to_bootloader = [row for row in rows if row["sender"] == "client" and row["kind"] == "instruction"
-                          and row["id"] == "2" and int(row["raw"].split()[4], 16) in (boot.INFO, boot.BEGIN, boot.PAGE, boot.END,
-                                                                 boot.READ, boot.GO, boot.BOOT)]
+                          and row["id"] == "2" and int(row["raw"].split()[4], 16) in bootloader_instructions]
     pages = len(ax12_app_image.load(HEX["ax12a"]).pages(128))
     assert len(sent_to_bootloader) >= 2 * (2 * pages + 3), "both updates are in the log"
     last_client_id = None
