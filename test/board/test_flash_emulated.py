@@ -15,7 +15,7 @@
   nothing reaches the bus.
 
 The updates are skipped while the bootloader's ELF (build/firmware/ax12-boot-atmega328p.elf)
-is not built.
+is not built, or when the emulator has no --bootloader (the bootloader in its servos' flash).
 The emulator is started by test/sim/python/conftest.py's Emulator.
 """
 import csv
@@ -69,8 +69,22 @@ ITEM = {item.name: item for item in T.ITEMS}
 # An EEPROM setting of ID 2 written before the updates: the bootloader never writes the EEPROM.
 KEPT_SETTING = (T.HIGHEST_LIMIT_TEMP, 77)
 
-needs_bootloader = pytest.mark.skipif(not os.path.exists(BOOT_ELF),
-                                      reason=f"{BOOT_ELF} not built (the bootloader): no update over the bus")
+
+def _emulator_without_bootloader():
+    """Why the emulator cannot run the bootloader, or None: the bootloader's ELF not built, or
+    an ax12-emu without --bootloader."""
+    if not os.path.exists(BOOT_ELF):
+        return f"{BOOT_ELF} not built (the bootloader): no update over the bus"
+    try:
+        text = subprocess.run([os.environ["AX12_EMU"], "serve", "--help"], capture_output=True, text=True,
+                              timeout=30).stdout
+    except OSError as error:
+        return f"ax12-emu cannot run: {error}"
+    return None if "--bootloader" in text else "this ax12-emu has no --bootloader: no bootloader in its flash"
+
+
+WITHOUT_BOOTLOADER = _emulator_without_bootloader()
+needs_bootloader = pytest.mark.skipif(WITHOUT_BOOTLOADER is not None, reason=str(WITHOUT_BOOTLOADER))
 
 
 @pytest.fixture
