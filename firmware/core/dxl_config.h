@@ -19,8 +19,13 @@
 #define DXL_HAS_BOOTLOADER 0
 #endif
 
-/* This firmware's own version number, reported at address 2. */
+/* This firmware's own version number, reported at address 2: one per profile, so a client can
+ * tell which build a servo runs (after an update over the bus, docs/bootloader.md). */
+#if DXL_PROFILE == DXL_PROFILE_AX12A
+#define DXL_FIRMWARE_VERSION 2
+#else
 #define DXL_FIRMWARE_VERSION 1
+#endif
 
 /* Tables that never change live in flash on the AVR (read with LPM through the __flash
  * named address space of avr-gcc) and in ordinary const memory on the host. */

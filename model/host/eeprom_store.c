@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "dxl_image.h"
+#include "state_file.h"
 
 bool eeprom_profile_parse(const char *name, eeprom_profile_t *profile) {
   if (strcmp(name, "ax12") == 0) {
@@ -105,49 +106,8 @@ int eeprom_store_load(const char *path, uint8_t *eeprom, size_t size, char *err,
   return 1;
 }
 
-static int write_all(int fd, const uint8_t *data, size_t size) {
-  size_t done = 0;
-  while (done < size) {
-    const ssize_t n = write(fd, data + done, size - done);
-    if (n < 0 && errno == EINTR) {
-      continue;
-    }
-    if (n <= 0) {
-      return -1;
-    }
-    done += (size_t)n;
-  }
-  return 0;
-}
-
 int eeprom_store_save(const char *path, const uint8_t *eeprom, size_t size, char *err, size_t err_len) {
-  char tmp[4096];
-  if (snprintf(tmp, sizeof(tmp), "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof(tmp)) {
-    snprintf(err, err_len, "state file path too long: %s", path);
-    return -1;
-  }
-  const int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) {
-    snprintf(err, err_len, "cannot write %s: %s", tmp, strerror(errno));
-    return -1;
-  }
-  /* No fsync: write + rename is atomic against the emulator being killed (the kernel keeps
-   * what was written), which is the durability a state file needs; fsync, which guards only
-   * against the host machine itself crashing, stalled real-time pacing by up to 130 ms per
-   * EEPROM byte on a disk. */
-  if (write_all(fd, eeprom, size) != 0) {
-    snprintf(err, err_len, "cannot write %s: %s", tmp, strerror(errno));
-    close(fd);
-    unlink(tmp);
-    return -1;
-  }
-  close(fd);
-  if (rename(tmp, path) != 0) {
-    snprintf(err, err_len, "cannot replace %s: %s", path, strerror(errno));
-    unlink(tmp);
-    return -1;
-  }
-  return 0;
+  return state_file_replace(path, eeprom, size, err, err_len);
 }
 
 bool eeprom_store_file_fits(const char *path, size_t size, char *why, size_t why_len) {

@@ -3,8 +3,7 @@
  * MCU, byte for byte (512 bytes on the ATmega88). Pure C; the image format is the
  * firmware's (firmware/core/dxl_image.h, docs/hardware.md "EEPROM image").
  *
- * A file is replaced atomically: written to a temporary file in the same directory, fsynced,
- * renamed over the old one, and the directory fsynced. A crash at any point leaves either
+ * A file is replaced atomically (state_file.h): killing the emulator at any point leaves either
  * the old or the new contents, never a mix. */
 #ifndef SIM_EEPROM_STORE_H
 #define SIM_EEPROM_STORE_H

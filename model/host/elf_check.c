@@ -33,6 +33,11 @@ static const mcu_facts_t *facts_of(const char *mcu) {
   return NULL;
 }
 
+uint32_t elf_mcu_flash_bytes(const char *mcu) {
+  const mcu_facts_t *facts = facts_of(mcu);
+  return facts ? facts->flash_bytes : 0;
+}
+
 static const char *mcu_of_arch(unsigned arch) {
   for (size_t i = 0; i < sizeof MCUS / sizeof MCUS[0]; i++) {
     if (MCUS[i].arch == arch) {

@@ -8,10 +8,14 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 
 /* True when path is a 32-bit little-endian ELF for the AVR, of the architecture of mcu
  * ("atmega88": avr4, "atmega328p": avr5), whose loaded bytes fit that MCU's flash. False with
  * a one-line reason in err. */
 bool elf_check_avr(const char *path, const char *mcu, char *err, size_t err_len);
+
+/* The flash size of mcu in bytes (0 for an MCU the emulator does not know). */
+uint32_t elf_mcu_flash_bytes(const char *mcu);
 
 #endif

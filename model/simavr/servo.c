@@ -11,7 +11,9 @@
 #include <sim_elf.h>
 #include <sim_io.h>
 
+#include "servo_boot.h"
 #include "servo_eeprom.h"
+#include "servo_flash.h"
 #include "sim_log.h"
 #include "simavr_patch.h"
 
@@ -63,7 +65,9 @@ servo_t *servo_create(const servo_config_t *config, bus_t *bus, char *err, size_
   simavr_install_run_loop(avr);
   set_power_on_flag(avr);
 
-  if (servo_eeprom_attach(servo, config, err, err_len) != 0) {
+  const elf_firmware_t *fw = config->firmware;
+  if ((config->bootloader && servo_boot_attach(servo, config->bootloader, fw->flashsize, err, err_len) != 0) ||
+      servo_flash_attach(servo, config, err, err_len) != 0 || servo_eeprom_attach(servo, config, err, err_len) != 0) {
     servo_destroy(servo);
     return NULL;
   }
@@ -90,10 +94,12 @@ void servo_destroy(servo_t *servo) {
   }
   if (servo->ready && servo->state_path[0] && !servo->persist_errors) {
     (void)servo_persist(servo);
+    (void)servo_flash_poll_persist(servo);
   }
   if (servo->avr) {
     avr_terminate(servo->avr);
     board_detach(&servo->board);
+    servo_flash_detach(servo);
     free(servo->avr);
   }
   free(servo->persisted);

@@ -1,8 +1,11 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* One AX-12: an ATmega88 (or ATmega328P) in simavr running the firmware ELF, on its board,
- * with its EEPROM kept in a state file. This module is the MCU's lifecycle (create, reset,
- * power cycle, destroy); the servo's other jobs each have their module, all on this servo_t:
+ * with its EEPROM (and a flash changed by SPM) kept in state files. This module is the MCU's
+ * lifecycle (create, reset, power cycle, destroy); the servo's other jobs each have their
+ * module, all on this servo_t:
+ *   servo_boot.h     the bootloader and its application record in the flash, the reset vector
  *   servo_eeprom.h   EEPROM write timing and persistence to the state file
+ *   servo_flash.h    SPM timing and persistence of the flash to its state file
  *   servo_run.h      running the core: batches, sleep, the earliest wake
  *   servo_plant.h    the plant (model/plant) behind the board's pins
  *   servo_profile.h  the busy-time probe and the cycle profile by instruction
@@ -24,14 +27,26 @@
 #include "sim_time.h"
 
 struct avr_t;
+struct avr_flash_t;
 struct elf_firmware_t;
+struct servo_bootloader;
 struct servo_gdb;
+
+/* Where a servo's flash came from at servo_create (servo_flash.h). */
+typedef enum {
+  SERVO_FLASH_FROM_ELF = 0,          /* the ELFs; there was no flash state file */
+  SERVO_FLASH_FROM_STATE,            /* the flash state file, of this build */
+  SERVO_FLASH_DROPPED_OTHER_BUILD,   /* the ELFs; the state file was of another build: removed */
+  SERVO_FLASH_DROPPED_INVALID,       /* the ELFs; the state file was no flash image of this MCU: removed */
+} servo_flash_origin_t;
 
 typedef struct {
   const char *name;                       /* for messages and the bus, e.g. "servo-1" */
   const struct elf_firmware_t *firmware;  /* loaded once, shared by every servo */
   const char *mcu;                        /* "atmega88" or "atmega328p" */
-  const char *state_path;                 /* NULL: the EEPROM lives in memory only */
+  const char *state_path;                 /* NULL: the EEPROM (and flash) live in memory only;
+                                             the flash's file is beside it (flash_store.h) */
+  const struct servo_bootloader *bootloader; /* NULL: none (reset at 0, no record) */
   eeprom_profile_t profile;               /* for seeding a fresh EEPROM */
   uint8_t id;                             /* ID of a fresh EEPROM */
   uint8_t baud_reg;                       /* Baud Rate register of a fresh EEPROM */
@@ -61,6 +76,22 @@ typedef struct servo {
   uint64_t persists;
   uint64_t persist_errors;
   char last_error[256];
+  /* Flash under self-programming and its persistence (servo_flash.c). */
+  char flash_path[4096];       /* "" when the flash lives in memory only */
+  uint32_t flash_bytes;
+  uint64_t flash_identity;     /* of the flash as the ELFs loaded it (flash_store_identity) */
+  servo_flash_origin_t flash_origin;
+  struct avr_flash_t *flash_module; /* simavr's SPM module */
+  void *spm_io;                /* avr_io_t that sees every SPM before simavr's module */
+  io_write_hook_t spmcsr_replaced; /* simavr's SPMCSR handler, chained to */
+  uint32_t boot_section;       /* first byte of the boot section: SPM runs from there only */
+  uint32_t nrww_start;         /* first byte of the NRWW section (no RWWSB for its pages) */
+  bool flash_dirty;            /* changed by SPM since the last persist */
+  bool spm_busy;               /* a page erase or write under way: SPMEN held */
+  bool rww_busy;               /* RWWSB: set until the RWWSRE SPM */
+  uint64_t spm_page_ops;       /* page erases and writes done */
+  uint64_t spm_ignored;        /* SPMs ignored: while busy, or outside the boot section */
+  uint64_t flash_persists;
   /* Physics (model/plant, servo_plant.c): when has_plant, the world steps the plant with the
    * H-bridge duty and feeds its pot / supply / temperature voltages to the board. */
   bool has_plant;

@@ -9,6 +9,7 @@
 #include <sim_elf.h>
 
 #include "servo_eeprom.h"
+#include "servo_flash.h"
 #include "servo_gdb.h"
 #include "servo_plant.h"
 #include "servo_run.h"
@@ -60,6 +61,7 @@ void world_destroy(world_t *world) {
     servo_destroy(world->servos[i]);
   }
   bus_free(&world->bus);
+  servo_bootloader_free(&world->bootloader);
   if (world->firmware) {
     free(world->firmware->flash);
     free(world->firmware->eeprom);
@@ -82,6 +84,7 @@ static servo_t *add(world_t *world, servo_config_t *config, char *err, size_t er
     return NULL;
   }
   config->firmware = world->firmware;
+  config->bootloader = world->bootloader.flash ? &world->bootloader : NULL;
   config->mcu = world->mcu;
   config->profile = world->profile;
   servo_t *servo = servo_create(config, &world->bus, err, err_len);
@@ -94,6 +97,11 @@ static servo_t *add(world_t *world, servo_config_t *config, char *err, size_t er
   servo->plant_due = &world->plant_due;
   world->servos[world->servo_count++] = servo;
   return servo;
+}
+
+bool world_set_bootloader(world_t *world, const char *path, char *err, size_t err_len) {
+  servo_bootloader_free(&world->bootloader);
+  return servo_bootloader_read(&world->bootloader, path, world->mcu, err, err_len);
 }
 
 servo_t *world_add_servo(world_t *world, uint8_t id, uint8_t baud_reg, const char *state_path, char *err,
@@ -114,6 +122,9 @@ int world_poll_persist(world_t *world) {
   int failures = 0;
   for (size_t i = 0; i < world->servo_count; i++) {
     if (servo_poll_persist(world->servos[i]) < 0) {
+      failures++;
+    }
+    if (servo_flash_poll_persist(world->servos[i]) < 0) {
       failures++;
     }
   }
@@ -239,6 +250,9 @@ int world_settle_and_persist(world_t *world, sim_cycles_t max_cycles) {
   int failures = 0;
   for (size_t i = 0; i < world->servo_count; i++) {
     if (servo_persist(world->servos[i]) < 0) {
+      failures++;
+    }
+    if (servo_flash_poll_persist(world->servos[i]) < 0) {
       failures++;
     }
   }

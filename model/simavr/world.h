@@ -20,6 +20,7 @@
 #include "eeprom_store.h"
 #include "master_request.h"
 #include "servo.h"
+#include "servo_boot.h"
 #include "sim_time.h"
 
 struct elf_firmware_t;
@@ -30,12 +31,13 @@ typedef struct world {
   bus_t bus;
   sim_cycles_t now;
   struct elf_firmware_t *firmware;
+  servo_bootloader_t bootloader; /* bootloader.flash NULL: none (world_set_bootloader) */
   char mcu[32];
   eeprom_profile_t profile;
   servo_t *servos[WORLD_MAX_SERVOS];
   size_t servo_count;
   uint64_t steps;
-  bool persist_due;       /* a servo wrote an EEPROM byte (servo_t.persist_due) */
+  bool persist_due;       /* a servo wrote an EEPROM byte or changed its flash (servo_t.persist_due) */
   /* Second thread (world_set_threads): runs servos [split, servo_count) of every step. */
   bool worker_started;
   pthread_t worker;
@@ -58,6 +60,10 @@ typedef struct world {
 /* Reads the ELF once. NULL with err set when it cannot be read. */
 world_t *world_create(const char *elf_path, const char *mcu, eeprom_profile_t profile, char *err, size_t err_len);
 void world_destroy(world_t *world);
+
+/* Every servo added from now on carries the bootloader ELF at path beside the application
+ * (servo_boot.h). False with err set when it is not a bootloader for the world's MCU. */
+bool world_set_bootloader(world_t *world, const char *path, char *err, size_t err_len);
 
 /* Adds a servo for slot `id`: EEPROM from state_path (NULL: in memory), seeded with `id` and
  * baud_reg when missing. Returns the servo, or NULL with err set. */
@@ -93,14 +99,16 @@ void world_set_debugged(world_t *world, servo_t *servo);
 /* True while gdb holds the debugged servo: world_run_until does not advance. */
 bool world_held(const world_t *world);
 
-/* Persists every EEPROM whose write sequence has finished. Returns the number of failures. */
+/* Persists every EEPROM with a byte written, and every flash changed by SPM, since the last
+ * time. Returns the number of failures. */
 int world_poll_persist(world_t *world);
 
 /* True while any servo may be in the middle of an EEPROM write sequence. */
 bool world_eeprom_unsettled(const world_t *world);
 
 /* For a clean shutdown: runs up to max_cycles more until no EEPROM write sequence is under
- * way, then persists every EEPROM. Returns the number of failures. */
+ * way, then persists every EEPROM and every flash changed by SPM. Returns the number of
+ * failures. */
 int world_settle_and_persist(world_t *world, sim_cycles_t max_cycles);
 
 /* A requester (master_request.h) for a master on this world's bus: master_exchange() and

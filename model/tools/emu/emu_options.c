@@ -26,8 +26,9 @@ static const char usage_text[] =
     "  --ids LIST          servo IDs, e.g. 1 | 1,2,3 | 1-18 | 1-4,7 (default 1); each ID is\n"
     "                      its own servo with its own EEPROM (state file servo-<ID>.eeprom)\n"
     "  --link PATH         also make PATH a symlink to the device (removed on exit)\n"
-    "  --state-dir DIR     where EEPROM state files live (default $XDG_STATE_HOME/ax12 or\n"
-    "                      ~/.local/state/ax12); settings survive restarts\n"
+    "  --state-dir DIR     where the state files live (default $XDG_STATE_HOME/ax12 or\n"
+    "                      ~/.local/state/ax12): servo-<ID>.eeprom, and servo-<ID>.flash\n"
+    "                      once a bootloader changed the flash; both survive restarts\n"
     "  --profile NAME      ax12 (2006 manual, default) or ax12a\n"
     "  --mcu NAME          atmega88 (default) or atmega328p\n"
     "  --baud VALUE        Baud Rate register of servos without a state file, 0..254\n"
@@ -36,6 +37,12 @@ static const char usage_text[] =
     "  --fast              no throttling: simulate as fast as the host allows\n"
     "  --elf PATH          firmware ELF (default: <firmware-dir>/ax12-<profile>-<mcu>.elf)\n"
     "  --firmware-dir DIR  where the firmware ELFs are (default: the build's)\n"
+    "  --bootloader PATH|none\n"
+    "                      the bootloader ELF in the flash beside the application, where\n"
+    "                      every reset starts (BOOTRST), with the application's record\n"
+    "                      (docs/bootloader.md); its updates over the bus are kept in\n"
+    "                      servo-<ID>.flash (default: <firmware-dir>/ax12-boot-<mcu>.elf\n"
+    "                      on the atmega328p when it exists; none on the atmega88)\n"
     "  --adapter KIND[:MS] the USB serial adapter between the client and the bus:\n"
     "                      u2d2 (default; FT232H class, high speed), usb2dynamixel (FT232R,\n"
     "                      full speed) or wire (no adapter: each byte as it leaves the wire).\n"
@@ -213,7 +220,7 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
   enum { OPT_IDS = 256, OPT_LINK, OPT_STATE_DIR, OPT_PROFILE, OPT_MCU, OPT_BAUD, OPT_REALTIME, OPT_FAST, OPT_ELF,
          OPT_FIRMWARE_DIR, OPT_STATS, OPT_BIT_ERROR_RATE, OPT_SEED, OPT_ADAPTER,
          OPT_WORLD, OPT_CONTROL, OPT_DASHBOARD, OPT_LOG_BUS,
-         OPT_TRACE, OPT_TRACE_IDS, OPT_GDB };
+         OPT_TRACE, OPT_TRACE_IDS, OPT_GDB, OPT_BOOTLOADER };
   static const struct option long_options[] = {
       {"ids", required_argument, NULL, OPT_IDS},
       {"link", required_argument, NULL, OPT_LINK},
@@ -225,6 +232,7 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       {"fast", no_argument, NULL, OPT_FAST},
       {"elf", required_argument, NULL, OPT_ELF},
       {"firmware-dir", required_argument, NULL, OPT_FIRMWARE_DIR},
+      {"bootloader", required_argument, NULL, OPT_BOOTLOADER},
       {"stats", no_argument, NULL, OPT_STATS},
       {"bit-error-rate", required_argument, NULL, OPT_BIT_ERROR_RATE},
       {"seed", required_argument, NULL, OPT_SEED},
@@ -298,6 +306,13 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       break;
     case OPT_FIRMWARE_DIR:
       o->firmware_dir = optarg;
+      break;
+    case OPT_BOOTLOADER:
+      if (!optarg[0]) {
+        return fail_usage("empty --bootloader (a path, or none)");
+      }
+      snprintf(o->bootloader, sizeof(o->bootloader), "%s", strcmp(optarg, "none") == 0 ? "" : optarg);
+      o->bootloader_given = true;
       break;
     case OPT_STATS:
       o->stats = true;
@@ -418,6 +433,21 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
     return 1;
   }
   if (!elf_check_avr(o->elf, o->mcu, err, sizeof(err))) {
+    fprintf(stderr, "ax12-emu: %s\n", err);
+    return 1;
+  }
+  if (!o->bootloader_given && strcmp(o->mcu, "atmega328p") == 0) {
+    snprintf(o->bootloader, sizeof(o->bootloader), "%s/ax12-boot-%s.elf", o->firmware_dir, o->mcu);
+    if (access(o->bootloader, F_OK) != 0) {
+      o->bootloader[0] = '\0'; /* not built: the application alone, reset at 0 */
+    }
+  }
+  if (o->bootloader[0] && access(o->bootloader, R_OK) != 0) {
+    fprintf(stderr, "ax12-emu: bootloader ELF %s: %s (build the firmware, or pass --bootloader none)\n",
+            o->bootloader, strerror(errno));
+    return 1;
+  }
+  if (o->bootloader[0] && !elf_check_avr(o->bootloader, o->mcu, err, sizeof(err))) {
     fprintf(stderr, "ax12-emu: %s\n", err);
     return 1;
   }

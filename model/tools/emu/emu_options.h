@@ -38,6 +38,8 @@ typedef struct {
   unsigned baud;
   bool realtime;
   char elf[PATH_MAX];
+  char bootloader[PATH_MAX];    /* the bootloader ELF beside the application; "" = none */
+  bool bootloader_given;        /* --bootloader PATH or none */
   const char *firmware_dir;
   bool stats;
   double bit_error_rate; /* per bit on the wire, [0, 1) */
@@ -69,7 +71,8 @@ bool emu_servo_world(const serve_options_t *o, uint8_t id, plant_options_t *worl
 void emu_print_usage(FILE *out);
 
 /* Parses `serve [options]` (argv[0] is "serve"), checks the state directory (created if
- * needed) and the ELF. Returns -1 when the program goes on, else its exit status: 0 after
+ * needed), the ELF and the bootloader ELF (default: <firmware-dir>/ax12-boot-<mcu>.elf on the
+ * ATmega328P when that file exists, none on the ATmega88). Returns -1 when the program goes on, else its exit status: 0 after
  * --help, EMU_EXIT_USAGE for bad input (one line on stderr), 1 for an unusable state
  * directory or ELF. */
 int emu_parse_serve_options(int argc, char **argv, serve_options_t *o);

@@ -92,10 +92,11 @@ static void print_stats(const world_t *world, const pty_bridge_t *pty, const pac
     const uart_link_t *l = &s->board.link;
     fprintf(stderr,
             "ax12-emu: %s: rx %llu (overrun %llu, late %llu), tx %llu (undriven %llu), EEPROM writes %llu, "
-            "persisted %llu, watchdog resets %llu%s\n",
+            "persisted %llu, flash pages erased or written %llu (persisted %llu), watchdog resets %llu%s\n",
             s->name, (unsigned long long)l->rx_bytes, (unsigned long long)l->rx_overruns,
             (unsigned long long)l->rx_late, (unsigned long long)l->tx_bytes, (unsigned long long)l->tx_undriven,
             (unsigned long long)s->eeprom_writes, (unsigned long long)s->persists,
+            (unsigned long long)s->spm_page_ops, (unsigned long long)s->flash_persists,
             (unsigned long long)s->watchdog_resets, s->halted ? ", HALTED" : "");
   }
 }
@@ -244,11 +245,35 @@ static bool check_state_file(servo_t *servo, const char *path, unsigned id, char
   return eeprom_store_save(path, servo->eeprom, servo->eeprom_size, err, err_len) == 0;
 }
 
+/* Where servo `id`'s flash came from, when not from the ELFs alone: one line on stderr. */
+static void report_flash_origin(const servo_t *servo, unsigned id, const char *mcu) {
+  switch (servo->flash_origin) {
+  case SERVO_FLASH_FROM_STATE:
+    fprintf(stderr, "ax12-emu: servo %u runs the flash it was updated to (%s)\n", id, servo->flash_path);
+    break;
+  case SERVO_FLASH_DROPPED_OTHER_BUILD:
+    fprintf(stderr, "ax12-emu: the firmware was rebuilt: servo %u's flashed image is dropped (%s removed)\n", id,
+            servo->flash_path);
+    break;
+  case SERVO_FLASH_DROPPED_INVALID:
+    fprintf(stderr, "ax12-emu: warning: servo %u: %s is not a flash image of the %s: dropped (removed)\n", id,
+            servo->flash_path, mcu);
+    break;
+  case SERVO_FLASH_FROM_ELF:
+    break;
+  }
+}
+
 int emu_serve(const serve_options_t *o) {
   char err[512];
   world_t *world = world_create(o->elf, o->mcu, o->profile, err, sizeof(err));
   if (!world) {
     fprintf(stderr, "ax12-emu: %s\n", err);
+    return 1;
+  }
+  if (o->bootloader[0] && !world_set_bootloader(world, o->bootloader, err, sizeof(err))) {
+    fprintf(stderr, "ax12-emu: %s\n", err);
+    world_destroy(world);
     return 1;
   }
   (void)bus_set_noise(&world->bus, o->bit_error_rate, o->noise_seed); /* validated by the parser */
@@ -268,6 +293,7 @@ int emu_serve(const serve_options_t *o) {
       world_destroy(world);
       return 1;
     }
+    report_flash_origin(servo, o->ids[i], o->mcu);
   }
   /* Each servo's world: the bus-wide options with its own --world ones over them; changed
    * at run time through the control socket. */
@@ -378,9 +404,10 @@ int emu_serve(const serve_options_t *o) {
   fflush(stdout);
   char adapter_name[96];
   usb_adapter_describe(&o->adapter, adapter_name, sizeof(adapter_name));
-  fprintf(stderr, "ax12-emu: %zu servo%s (%s, %s) on %s%s%s, adapter %s, state in %s, %s\n", world->servo_count,
-          world->servo_count == 1 ? "" : "s", eeprom_profile_name(o->profile), o->mcu, pty.device, o->link ? " = " : "",
-          o->link ? o->link : "", adapter_name, o->state_dir, o->realtime ? "real time" : "fast");
+  fprintf(stderr, "ax12-emu: %zu servo%s (%s, %s%s) on %s%s%s, adapter %s, state in %s, %s\n", world->servo_count,
+          world->servo_count == 1 ? "" : "s", eeprom_profile_name(o->profile), o->mcu,
+          o->bootloader[0] ? ", bootloader" : "", pty.device, o->link ? " = " : "", o->link ? o->link : "", adapter_name,
+          o->state_dir, o->realtime ? "real time" : "fast");
 
   bool warned_persist = false;
   double lag_report_at_us = pacing_wall_us() + LAG_REPORT_PERIOD_US;

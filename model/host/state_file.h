@@ -1,0 +1,14 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+/* Replacing a state file atomically (the EEPROM's, eeprom_store.h; the flash's, flash_store.h):
+ * the new contents go to a temporary file in the same directory, which is then renamed over
+ * the old one. Killing the emulator at any moment leaves the old contents or the new, never a
+ * mix (the kernel keeps what was written). */
+#ifndef SIM_STATE_FILE_H
+#define SIM_STATE_FILE_H
+
+#include <stddef.h>
+
+/* Replaces path with data[0..size) atomically. Returns 0, or -1 with err set. */
+int state_file_replace(const char *path, const void *data, size_t size, char *err, size_t err_len);
+
+#endif

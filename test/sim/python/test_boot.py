@@ -1,0 +1,105 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""`ax12-emu serve --bootloader`: the flash a servo changes with SPM, kept in servo-<n>.flash.
+The programs of test_boot_flash.c stand in for the firmware (AX12_BOOT_DIR): boot_spm.elf at
+the boot section erases and writes the page at 0x1000 when it is blank, then turns its USART
+receiver on, so `ready:` comes only after the write; boot_app_1.elf and boot_app_2.elf are two
+builds of one application. Checks: a SIGKILL right after `ready:` leaves the written page in
+the file (the end of the step of the write persisted it); the same build runs that flash again;
+another build drops it with one line on stderr; the default bootloader of --firmware-dir; bad
+--bootloader input."""
+import os
+import shutil
+import signal
+import struct
+import subprocess
+
+import pytest
+
+from conftest import EMU, Emulator
+
+BOOT_DIR = os.environ.get("AX12_BOOT_DIR", "")
+FLASH_BYTES = 32768
+HEADER_BYTES = 24
+TEST_PAGE = 0x1000
+PATTERN = bytes(b for i in range(0, 128, 2) for b in (i, 0x5A))
+
+
+def elf(name):
+    path = os.path.join(BOOT_DIR, name)
+    if not os.path.exists(path):
+        pytest.fail(f"boot test program missing: {path} (AX12_BOOT_DIR)")
+    return path
+
+
+def serve(state_dir, app, *args):
+    return Emulator(["--mcu", "atmega328p", "--elf", elf(app), "--fast", "--state-dir", str(state_dir),
+                     "--control", os.path.join(str(state_dir), "c.sock")] + list(args))
+
+
+def read_flash(path):
+    with open(path, "rb") as f:
+        data = f.read()
+    assert len(data) == HEADER_BYTES + FLASH_BYTES
+    assert data[:8] == b"AX12FLSH"
+    assert struct.unpack_from("<II", data, 8) == (FLASH_BYTES, 1)
+    return struct.unpack_from("<Q", data, 16)[0], data[HEADER_BYTES:]
+
+
+def stderr_of(emu):
+    return emu.proc.stderr.read().decode(errors="replace")
+
+
+def test_the_flash_written_by_spm_survives_sigkill_and_is_dropped_for_another_build(tmp_path):
+    flash_path = tmp_path / "servo-1.flash"
+    emu = serve(tmp_path, "boot_app_1.elf", "--bootloader", elf("boot_spm.elf"))
+    assert emu.kill() == -signal.SIGKILL
+    identity, flash = read_flash(flash_path)
+    assert flash[TEST_PAGE:TEST_PAGE + 128] == PATTERN
+    assert flash[0x7780:0x7784] == b"AXAP"  # the record the emulator wrote
+
+    emu = serve(tmp_path, "boot_app_1.elf", "--bootloader", elf("boot_spm.elf"))
+    assert emu.stop() == 0
+    assert f"servo 1 runs the flash it was updated to ({flash_path})" in stderr_of(emu)
+    assert read_flash(flash_path) == (identity, flash)  # kept, unchanged: the page was found
+
+    emu = serve(tmp_path, "boot_app_2.elf", "--bootloader", elf("boot_spm.elf"))
+    assert emu.stop() == 0
+    lines = [line for line in stderr_of(emu).splitlines() if "flashed image" in line]
+    assert lines == [f"ax12-emu: the firmware was rebuilt: servo 1's flashed image is dropped ({flash_path} removed)"]
+    new_identity, new_flash = read_flash(flash_path)  # written again by the program, for the new build
+    assert new_identity != identity
+    assert new_flash[TEST_PAGE:TEST_PAGE + 128] == PATTERN
+
+
+def test_the_bootloader_of_the_firmware_dir_is_the_default_on_the_atmega328p(tmp_path):
+    firmware_dir = tmp_path / "fw"
+    firmware_dir.mkdir()
+    shutil.copy(elf("boot_spm.elf"), firmware_dir / "ax12-boot-atmega328p.elf")
+    state = tmp_path / "state"
+    emu = serve(state, "boot_app_1.elf", "--firmware-dir", str(firmware_dir))
+    assert emu.stop() == 0
+    assert "bootloader" in stderr_of(emu)
+    _, flash = read_flash(state / "servo-1.flash")
+    assert flash[TEST_PAGE:TEST_PAGE + 128] == PATTERN
+
+    # --bootloader none: the application alone, from address 0 (it never uses SPM).
+    state = tmp_path / "none"
+    emu = serve(state, "boot_app_1.elf", "--firmware-dir", str(firmware_dir), "--bootloader", "none")
+    assert emu.stop() == 0
+    assert not (state / "servo-1.flash").exists()
+
+
+@pytest.mark.parametrize("bootloader, status, message", [
+    ("missing.elf", 1, "bootloader ELF"),
+    ("boot_app_2.elf", 1, "not at the boot section's start 0x7800"),
+    ("", 2, "empty --bootloader"),
+])
+def test_bad_bootloader_input_stops_before_ready(tmp_path, bootloader, status, message):
+    path = os.path.join(BOOT_DIR, bootloader) if bootloader else ""
+    proc = subprocess.run([EMU, "serve", "--mcu", "atmega328p", "--elf", elf("boot_app_1.elf"), "--fast",
+                           "--state-dir", str(tmp_path), "--bootloader", path],
+                          capture_output=True, timeout=20)
+    assert proc.returncode == status
+    assert proc.stdout == b""
+    assert message in proc.stderr.decode()
+    assert len(proc.stderr.decode().strip().splitlines()) == 1
