@@ -15,7 +15,6 @@ PING, READ_DATA = 0x01, 0x02  # the application's (Protocol 1.0)
 INFO, BEGIN, PAGE, END, READ, GO, BOOT = 0x20, 0x21, 0x22, 0x23, 0x24, 0x25, 0x0A
 BOOT_PARAMS = b"BOOT"
 INFO_MAGIC = b"AXBL"
-READ_MAX = 128
 
 ERR_INSTRUCTION, ERR_CRC, ERR_RANGE, ERR_READ_BACK = 0x40, 0x10, 0x08, 0x20
 ERROR_NAMES = {ERR_INSTRUCTION: "unknown instruction or wrong parameter count",
@@ -122,18 +121,14 @@ class BootClient:
     def end(self):
         self.ask(END, (), "END")
 
-    def read(self, address, count):
-        """count flash bytes from address, READ_MAX at a time."""
-        data = b""
-        while len(data) < count:
-            chunk = min(READ_MAX, count - len(data))
-            at = address + len(data)
-            answer = self.ask(READ, u16(at) + [chunk], f"READ 0x{at:04X}")
-            if len(answer.params) != chunk:
-                raise BootError(f"READ 0x{at:04X}: servo {self.ident} answered {len(answer.params)} bytes, "
-                                f"not {chunk}")
-            data += bytes(answer.params)
-        return data
+    def read_page(self, address, page_bytes):
+        """The page_bytes flash bytes of the page at address (page-aligned: a page of the
+        application area or the record page)."""
+        answer = self.ask(READ, u16(address), f"READ 0x{address:04X}")
+        if len(answer.params) != page_bytes:
+            raise BootError(f"READ 0x{address:04X}: servo {self.ident} answered {len(answer.params)} bytes, "
+                            f"not a page of {page_bytes}")
+        return bytes(answer.params)
 
     def go(self):
         """GO once (the application may already run when the answer is lost): the answer, or

@@ -144,7 +144,7 @@ def write_image(client, image, info, verify, image_module):
     expected = pages + [(record_at, image.record_page(info.page_bytes))]
     progress = Progress("verifying", len(expected))
     for done, (address, data) in enumerate(expected, 1):
-        got = client.read(address, len(data))
+        got = client.read_page(address, len(data))
         if got != data:
             first = next(i for i in range(len(data)) if got[i] != data[i])
             raise TransferError(f"verify: flash 0x{address + first:04X} reads 0x{got[first]:02X}, "

@@ -161,12 +161,12 @@ class FakeBootServo:
                 return self._send(0x10)
             self.flash[record_at:record_at + 8] = b"AXAP" + length.to_bytes(2, "little") + crc.to_bytes(2, "little")
             self._send(0)
-        elif instruction == READ and len(params) == 3:
-            address, count = u16(0), params[2]
-            if not 1 <= count <= 128 or address + count > self.app_area:
+        elif instruction == READ and len(params) == 2:
+            address = u16(0)
+            if address % self.page_bytes or address >= self.app_area:
                 return self._send(0x08)
-            data = bytearray(self.flash[address:address + count])
-            if self.read_flip is not None and address <= self.read_flip < address + count:
+            data = bytearray(self.flash[address:address + self.page_bytes])
+            if self.read_flip is not None and address <= self.read_flip < address + self.page_bytes:
                 data[self.read_flip - address] ^= 0x01
             self._send(0, bytes(data))
         elif instruction == GO and not params:
