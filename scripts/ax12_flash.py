@@ -45,8 +45,9 @@ def arguments(argv):
     ap.add_argument("--baud", type=int, default=1000000, metavar="BPS",
                     help="the servo's bit rate (default 1000000)")
     ap.add_argument("--retries", type=int, default=3, metavar="K",
-                    help="how many more times a request is sent after a lost or garbled answer, or a "
-                         "page after a CRC or read-back error (default 3)")
+                    help="how many more times a request is sent after a lost or garbled answer, a page "
+                         "after a CRC or read-back error, and GO while the servo is still in its "
+                         "bootloader (default 3)")
     ap.add_argument("--no-verify", action="store_true", help="do not read the pages back after writing")
     ap.add_argument("--build", default=os.path.join(REPO, "build"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -216,6 +217,9 @@ def main(argv=None, open_port=open_serial):
         return EXIT_BAD_INPUT
     except (boot.BootError, TransferError) as error:
         say(str(error))
+        return EXIT_SERVO
+    except KeyboardInterrupt:
+        say("interrupted: a servo stopped between BEGIN and END stays in its bootloader; run the command again")
         return EXIT_SERVO
     finally:
         if port is not None:
