@@ -14,8 +14,13 @@
 #   AX12_FIRMWARE_BOOT_MCUS             the parts with a bootloader (atmega328p)
 #   AX12_FIRMWARE_BOOT_ELF_<mcu>, AX12_FIRMWARE_BOOT_HEX_<mcu>
 #                                       its ELF and HEX (ax12-boot-<mcu>.elf/.hex)
+#   AX12_FIRMWARE_MERGED_HEX_<profile>_atmega328p
+#                                       the whole flash of a new board: application, its
+#                                       record page and the bootloader
+#                                       (ax12-<profile>-atmega328p-merged.hex)
 #   target firmware                     builds all four (part of ALL); add_dependencies() on it
 #   targets firmware-<profile>-<mcu>    one each
+#   target firmware-merged-hex          the merged HEX files (part of firmware)
 # Every build re-runs the four sub-builds (BUILD_ALWAYS: their sources are not known here),
 # which recompile what changed and print each ELF's flash and RAM use; the ATmega88 builds
 # fail above 8192 B flash or 1024 B static RAM.
@@ -66,3 +71,21 @@ foreach(mcu ${AX12_FIRMWARE_MCUS})
     list(APPEND AX12_FIRMWARE_ELFS ${elf})
   endforeach()
 endforeach()
+
+# The merged HEX of each ATmega328P application (docs/bootloader.md "Flash layout"), by
+# scripts/ax12_merge_hex.py with the project's Python (scripts/setup's .venv: intelhex). Run
+# on every build after the ATmega328P sub-builds (one of which writes the bootloader's HEX);
+# it rewrites a merged HEX only when its bytes change, and writes none while the bootloader's
+# HEX does not exist.
+set(ax12_python ${ax12_repo_dir}/.venv/bin/python)
+add_custom_target(firmware-merged-hex COMMENT "merged HEX: application + record + bootloader (ATmega328P)")
+foreach(profile ${AX12_FIRMWARE_PROFILES})
+  set(AX12_FIRMWARE_MERGED_HEX_${profile}_atmega328p ${AX12_FIRMWARE_DIR}/ax12-${profile}-atmega328p-merged.hex)
+  add_custom_command(TARGET firmware-merged-hex POST_BUILD
+    COMMAND ${ax12_python} ${ax12_repo_dir}/scripts/ax12_merge_hex.py --mcu atmega328p
+            ${AX12_FIRMWARE_HEX_${profile}_atmega328p} ${AX12_FIRMWARE_BOOT_HEX_atmega328p}
+            ${AX12_FIRMWARE_MERGED_HEX_${profile}_atmega328p}
+    VERBATIM)
+  add_dependencies(firmware-merged-hex firmware-${profile}-atmega328p)
+endforeach()
+add_dependencies(firmware firmware-merged-hex)

@@ -16,18 +16,22 @@ from dataclasses import dataclass
 class Mcu:
     name: str             # as the build names it: ax12-<profile>-<name>.elf
     part: str             # avrdude's -p
+    signature: bytes      # the part's three signature bytes (the bootloader's INFO gives them)
     flash_bytes: int
-    boot_section_bytes: int   # the boot section BOOTSZ selects (for the coming bootloader)
-    app_limit_bytes: int      # what the application may occupy today (see below)
+    page_bytes: int           # flash page size (SPM writes a page at a time)
+    boot_section_bytes: int   # the boot section BOOTSZ selects
+    app_limit_bytes: int      # what the application image itself may occupy (see below)
 
 
-# The ATmega88's application (8014 B today) does not fit beside any boot section (the
-# smallest, 256 B, leaves 7936 B): until it is at most 6144 B (the flash goal in README.md)
-# it may use the whole flash and no bootloader can be installed. The ATmega328P keeps its top
-# 4 KB for the bootloader from now on.
+# The ATmega328P: the bootloader in its 2 KB boot section (0x7800-0x7FFF); below it the
+# application area, whose last page (0x7780-0x77FF) holds the application record
+# (docs/bootloader.md "Flash layout"), so the image itself ends below 0x7780.
+# The ATmega88's application (8014 B) does not fit beside any boot section (the smallest,
+# 256 B, leaves 7936 B): until it is at most 6144 B (the flash goal in README.md) it has no
+# bootloader and may use the whole flash.
 MCUS = {
-    "atmega88": Mcu("atmega88", "m88", 8192, 2048, 8192),
-    "atmega328p": Mcu("atmega328p", "m328p", 32768, 4096, 32768 - 4096),
+    "atmega88": Mcu("atmega88", "m88", bytes([0x1E, 0x93, 0x0A]), 8192, 64, 2048, 8192),
+    "atmega328p": Mcu("atmega328p", "m328p", bytes([0x1E, 0x95, 0x0F]), 32768, 128, 2048, 32768 - 2048 - 128),
 }
 
 # Low byte, the same on both parts: CKDIV8 1 (not divided), CKOUT 1 (no clock on PB0),
@@ -54,10 +58,11 @@ _HIGH_COMMON = {"RSTDISBL": 1, "DWEN": 1, "SPIEN": 0, "WDTON": 1, "EESAVE": 0}
 def fuse_fields(mcu, bootloader=False):
     """The named fields of each fuse byte: {"lfuse": {...}, "hfuse": {...}, "efuse": {...}}.
 
-    bootloader: whether a bootloader is written with the application. BOOTRST (reset into
-    the boot section) is programmed only then: with an empty (erased) boot section the reset
-    would run from 0xFFFF words the datasheet does not define as instructions, and on the
-    ATmega88 today the application itself runs through the boot section's addresses.
+    bootloader: whether a bootloader is written with the application (the ATmega328P's merged
+    HEX). BOOTRST (reset into the boot section) is programmed only then: with an empty (erased)
+    boot section the reset would run from 0xFFFF words the datasheet does not define as
+    instructions, and on the ATmega88 the application itself runs through the boot section's
+    addresses.
     """
     bootrst = 0 if bootloader else 1
     if mcu == "atmega88":
@@ -70,8 +75,8 @@ def fuse_fields(mcu, bootloader=False):
     if mcu == "atmega328p":
         return {
             "lfuse": dict(_LOW),
-            # BOOTSZ 00: 2048 words = 4 KB boot section, 0x7000-0x7FFF.
-            "hfuse": dict(_HIGH_COMMON, BOOTSZ=0b00, BOOTRST=bootrst),
+            # BOOTSZ 01: 1024 words = 2 KB boot section, 0x7800-0x7FFF.
+            "hfuse": dict(_HIGH_COMMON, BOOTSZ=0b01, BOOTRST=bootrst),
             "efuse": {"BODLEVEL": _BODLEVEL_4V3},
         }
     raise KeyError(mcu)

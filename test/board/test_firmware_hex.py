@@ -1,20 +1,27 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Every firmware build's Intel HEX (firmware/hex.cmake) against its ELF: valid records, the
 same bytes as the ELF's .text + .data, inside the MCU's application area
-(python/ax12_fuses.py), and an -eeprom.hex exactly when the ELF has an .eeprom section."""
+(python/ax12_fuses.py), and an -eeprom.hex exactly when the ELF has an .eeprom section.
+The ATmega328P's merged HEX (cmake/firmware.cmake, scripts/ax12_merge_hex.py): the same
+application bytes, a valid application record, the bootloader's bytes in the boot section;
+and the merge script on its own, with a stand-in bootloader HEX."""
 
 import os
 import subprocess
+import sys
 
 import pytest
 from intelhex import IntelHex
 
+import ax12_app_image
 import ax12_fuses
 
 FIRMWARE_DIR = os.environ.get("AX12_FIRMWARE_DIR") or os.path.join(
     os.path.dirname(__file__), "..", "..", "build", "firmware")
 OBJCOPY = os.environ.get("AX12_OBJCOPY") or "avr-objcopy"
 BUILDS = [(profile, mcu) for mcu in ax12_fuses.MCUS for profile in ("ax12", "ax12a")]
+MERGE = os.path.join(os.path.dirname(__file__), "..", "..", "scripts", "ax12_merge_hex.py")
+BOOT_HEX_328P = os.path.join(FIRMWARE_DIR, "ax12-boot-atmega328p.hex")
 
 
 def paths(profile, mcu):
@@ -87,3 +94,84 @@ def test_eeprom_hex_only_with_an_eeprom_section(profile, mcu, tmp_path):
     image = IntelHex(eeprom_hex)
     assert image.minaddr() == 0
     assert image.tobinstr(start=0, size=len(expected)) == expected
+
+
+def check_merged(merged_path, app_hex_path, boot_hex_path, app_bytes=None):
+    """merged_path holds the application HEX's bytes unchanged (app_bytes too, when given),
+    a record page whose length and CRC are those of the flash below it, and the bootloader's
+    bytes from 0x7800 on, and nothing else."""
+    part = ax12_fuses.MCUS["atmega328p"]
+    boot_start = part.flash_bytes - part.boot_section_bytes
+    record_at = boot_start - part.page_bytes
+    check_records(merged_path)
+    merged, app, boot = IntelHex(merged_path), IntelHex(app_hex_path), IntelHex(boot_hex_path)
+    app_data = app.tobinstr(start=0, size=len(app))
+    if app_bytes is not None:
+        assert app_data == app_bytes
+    assert merged.tobinstr(start=0, size=len(app_data)) == app_data
+    record = merged.tobinstr(start=record_at, size=part.page_bytes)
+    assert record[:4] == b"AXAP"
+    length, crc = int.from_bytes(record[4:6], "little"), int.from_bytes(record[6:8], "little")
+    assert length == len(app_data)
+    assert crc == ax12_app_image.crc16(merged.tobinstr(start=0, size=length)), "the record's CRC is the flash's"
+    assert set(record[8:]) == {0xFF}
+    assert boot.minaddr() >= boot_start
+    assert merged.tobinstr(start=boot.minaddr(), end=boot.maxaddr()) == boot.tobinstr(start=boot.minaddr(),
+                                                                                       end=boot.maxaddr())
+    expected = set(app.addresses()) | set(range(record_at, boot_start)) | set(boot.addresses())
+    assert set(merged.addresses()) == expected, "bytes outside application, record and bootloader"
+
+
+@pytest.mark.parametrize("profile", ["ax12", "ax12a"])
+def test_merged_hex_is_application_record_and_bootloader(profile, tmp_path):
+    if not os.path.exists(BOOT_HEX_328P):
+        pytest.skip(f"{BOOT_HEX_328P} not built (the bootloader): no merged HEX")
+    elf, app_hex, _ = paths(profile, "atmega328p")
+    merged = os.path.join(FIRMWARE_DIR, f"ax12-{profile}-atmega328p-merged.hex")
+    assert os.path.isfile(merged), f"{merged} missing: the build writes it beside the HEX"
+    check_merged(merged, app_hex, BOOT_HEX_328P, elf_bytes(elf, tmp_path, [".text", ".data"]))
+
+
+def merge(*args):
+    return subprocess.run([sys.executable, MERGE, "--mcu", "atmega328p", *args],
+                          capture_output=True, text=True, timeout=60)
+
+
+def stand_in_bootloader(path, first=0x7800, size=600):
+    boot = IntelHex()
+    boot.frombytes(bytes((7 * i) & 0xFF for i in range(size)), offset=first)
+    boot.write_hex_file(str(path))
+    return str(path)
+
+
+def test_merge_script_with_a_stand_in_bootloader(tmp_path):
+    _, app_hex, _ = paths("ax12a", "atmega328p")
+    boot = stand_in_bootloader(tmp_path / "boot.hex")
+    out = tmp_path / "merged.hex"
+    run = merge(app_hex, boot, str(out))
+    assert run.returncode == 0, run.stderr
+    check_merged(str(out), app_hex, boot)
+    written = out.stat().st_mtime_ns
+    assert merge(app_hex, boot, str(out)).returncode == 0
+    assert out.stat().st_mtime_ns == written, "the same bytes are not written again"
+
+
+def test_merge_script_without_a_bootloader_writes_nothing(tmp_path):
+    _, app_hex, _ = paths("ax12", "atmega328p")
+    out = tmp_path / "merged.hex"
+    out.write_text("stale")
+    run = merge(app_hex, str(tmp_path / "no-boot.hex"), str(out))
+    assert run.returncode == 0 and "not built" in run.stderr
+    assert not out.exists(), "a stale merged HEX is removed"
+
+
+@pytest.mark.parametrize("app_profile_mcu,boot_first,message", [
+    (("ax12", "atmega88"), 0x7800, "built for the atmega88"),
+    (("ax12", "atmega328p"), 0x7700, "must lie in the boot section"),
+])
+def test_merge_script_refuses(tmp_path, app_profile_mcu, boot_first, message):
+    _, app_hex, _ = paths(*app_profile_mcu)
+    boot = stand_in_bootloader(tmp_path / "boot.hex", first=boot_first)
+    run = merge(app_hex, boot, str(tmp_path / "merged.hex"))
+    assert run.returncode == 2 and message in run.stderr, run.stderr
+    assert not (tmp_path / "merged.hex").exists()

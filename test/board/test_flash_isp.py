@@ -18,13 +18,13 @@ REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 BUILD = os.path.abspath(os.environ.get("AX12_BUILD_DIR") or os.path.join(REPO, "build"))
 FRONT_DOOR = os.path.join(REPO, "scripts", "ax12")
 
-EXPECTED_FUSES = {  # application only (no bootloader yet): BOOTRST unprogrammed
+EXPECTED_FUSES = {  # application only: BOOTRST unprogrammed
     "atmega88": {"lfuse": 0xD7, "hfuse": 0xD4, "efuse": 0xF9},
-    "atmega328p": {"lfuse": 0xD7, "hfuse": 0xD1, "efuse": 0xFC},
+    "atmega328p": {"lfuse": 0xD7, "hfuse": 0xD3, "efuse": 0xFC},
 }
-EXPECTED_WITH_BOOT = {
+EXPECTED_WITH_BOOT = {  # BOOTRST programmed; the 328P's 2 KB boot section: BOOTSZ 01
     "atmega88": {"lfuse": 0xD7, "hfuse": 0xD4, "efuse": 0xF8},
-    "atmega328p": {"lfuse": 0xD7, "hfuse": 0xD0, "efuse": 0xFC},
+    "atmega328p": {"lfuse": 0xD7, "hfuse": 0xD2, "efuse": 0xFC},
 }
 
 
@@ -77,7 +77,7 @@ def test_fuses_only():
     run = flash_isp("--programmer", "usbasp", "--mcu", "atmega328p", "--fuses-only", "--dry-run")
     assert run.returncode == 0, run.stderr
     words, ops = operations(run.stdout)
-    assert ops == ["lfuse:w:0xD7:m", "hfuse:w:0xD1:m", "efuse:w:0xFC:m"]
+    assert ops == ["lfuse:w:0xD7:m", "hfuse:w:0xD3:m", "efuse:w:0xFC:m"]
 
 
 def test_fuse_bytes():
@@ -86,6 +86,8 @@ def test_fuse_bytes():
         assert ax12_fuses.fuses(mcu, bootloader=True) == EXPECTED_WITH_BOOT[mcu]
         fields = ax12_fuses.fuse_fields(mcu)
         high = fields["hfuse"]
+        boot_size = fields["efuse" if mcu == "atmega88" else "hfuse"]["BOOTSZ"]
+        assert boot_size == {"atmega88": 0b00, "atmega328p": 0b01}[mcu], "a 2 KB boot section on both parts"
         assert high["SPIEN"] == 0 and high["EESAVE"] == 0 and high["WDTON"] == 1
         assert high["RSTDISBL"] == 1 and high["DWEN"] == 1
 
@@ -138,9 +140,11 @@ def test_bad_checksum(tmp_path):
     refused(flash_isp("--programmer", "usbasp", "--hex", str(bad), "--dry-run"), "is not an Intel HEX file")
 
 
-def test_image_past_the_application_area(tmp_path):
-    # One data byte at 0x7000, the ATmega328P's boot section (kept for the bootloader).
-    record = bytes([1, 0x70, 0x00, 0x00, 0xAA])
+@pytest.mark.parametrize("address", [0x7780, 0x7800])
+def test_image_past_the_application_area(tmp_path, address):
+    # One data byte in the ATmega328P's application record page (0x7780) or its boot section
+    # (0x7800): neither belongs to the application image.
+    record = bytes([1, address >> 8, address & 0xFF, 0x00, 0xAA])
     line = ":" + (record + bytes([(-sum(record)) & 0xFF])).hex().upper()
     big = tmp_path / "big.hex"
     big.write_text(line + "\n:00000001FF\n")

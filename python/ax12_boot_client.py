@@ -1,0 +1,143 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""The host side of the bootloader's protocol (docs/bootloader.md "Packets"), over one servo's
+ServoPort (python/ax12_servo_port.py): its instructions, the INFO answer, and the
+application's way in (instruction 0x0A "BOOT").
+
+Every method sends one request (again on a lost or garbled answer, up to `retries` more times,
+where repeating it is harmless) and returns the answer's parameters, or raises BootError with a
+message naming the servo and the step.
+"""
+from collections import namedtuple
+
+from ax12_servo_port import BadChecksum, NoAnswer
+
+PING, READ_DATA = 0x01, 0x02  # the application's (Protocol 1.0)
+INFO, BEGIN, PAGE, END, READ, GO, BOOT = 0x20, 0x21, 0x22, 0x23, 0x24, 0x25, 0x0A
+BOOT_PARAMS = b"BOOT"
+INFO_MAGIC = b"AXBL"
+
+ERR_INSTRUCTION, ERR_CRC, ERR_RANGE, ERR_READ_BACK = 0x40, 0x10, 0x08, 0x20
+ERROR_NAMES = {ERR_INSTRUCTION: "unknown instruction or wrong parameter count",
+               ERR_CRC: "CRC does not match", ERR_RANGE: "address or length outside the application area",
+               ERR_READ_BACK: "the page did not read back as written"}
+
+STATE_APP_VALID, STATE_ON_REQUEST, STATE_ON_HASH = 0x01, 0x02, 0x04
+
+# The INFO answer (docs/bootloader.md): version, signature, page size, application area in
+# bytes (record page included), state bits.
+BootInfo = namedtuple("BootInfo", "version signature page_bytes app_area_bytes state")
+
+
+class BootError(Exception):
+    """A step that failed: the servo did not answer, or answered with an error."""
+
+
+def error_text(error):
+    return ", ".join(name for bit, name in ERROR_NAMES.items() if error & bit) or f"error bits 0x{error:02X}"
+
+
+def parse_info(params):
+    """The BootInfo of an INFO answer's parameters, or None when they are not a bootloader's."""
+    params = bytes(params)
+    if len(params) != 13 or params[:4] != INFO_MAGIC:
+        return None
+    return BootInfo(params[4], params[5:8], int.from_bytes(params[8:10], "little"),
+                    int.from_bytes(params[10:12], "little"), params[12])
+
+
+def u16(value):
+    return list(value.to_bytes(2, "little"))
+
+
+class BootClient:
+    def __init__(self, servo_port, retries):
+        self.servo = servo_port
+        self.retries = retries
+
+    @property
+    def ident(self):
+        return self.servo.ident
+
+    def ask(self, instruction, params=(), what="", retry_errors=0, attempts=None):
+        """The answer (ax12_packets.Packet) to instruction, sent again after a timeout, a bad
+        checksum or an error bit among retry_errors, at most attempts times in all (default
+        retries + 1). Any other error bit raises BootError at once."""
+        attempts = self.retries + 1 if attempts is None else attempts
+        problem = None
+        for _ in range(attempts):
+            try:
+                answer = self.servo.exchange(instruction, params)
+            except (NoAnswer, BadChecksum) as error:
+                problem = str(error)
+                continue
+            if answer.code & retry_errors:
+                problem = f"ID {self.ident}: {error_text(answer.code)}"
+                continue
+            if answer.code:
+                raise BootError(f"{what}: servo {self.ident} answered with {error_text(answer.code)}")
+            return answer
+        raise BootError(f"{what}: {problem} ({attempts} attempt{'s' if attempts > 1 else ''})")
+
+    def info(self, attempts=1):
+        """The raw answer to INFO (any error byte), or None when nothing answered."""
+        for _ in range(attempts):
+            try:
+                return self.servo.exchange(INFO)
+            except (NoAnswer, BadChecksum):
+                continue
+        return None
+
+    def ping(self, attempts=1):
+        """The answer to PING, or None."""
+        for _ in range(attempts):
+            try:
+                return self.servo.exchange(PING)
+            except (NoAnswer, BadChecksum):
+                continue
+        return None
+
+    def application_read(self, address, count):
+        """The application's answer to READ DATA (0x02) of count bytes from address, or None."""
+        try:
+            return self.servo.exchange(READ_DATA, [address, count])
+        except (NoAnswer, BadChecksum):
+            return None
+
+    def request_bootloader(self):
+        """Instruction 0x0A "BOOT" to the application: its answer (None if none came)."""
+        try:
+            return self.servo.exchange(BOOT, BOOT_PARAMS)
+        except (NoAnswer, BadChecksum):
+            return None
+
+    def begin(self, length, crc):
+        self.ask(BEGIN, u16(length) + u16(crc), "BEGIN")
+
+    def page(self, address, data, crc):
+        """Writes one page; a CRC mismatch (0x10) or a failed read-back (0x20) is tried again."""
+        self.ask(PAGE, u16(address) + u16(crc) + list(data), f"PAGE 0x{address:04X}",
+                 retry_errors=ERR_CRC | ERR_READ_BACK)
+
+    def end(self):
+        self.ask(END, (), "END")
+
+    def read_page(self, address, page_bytes):
+        """The page_bytes flash bytes of the page at address (page-aligned: a page of the
+        application area or the record page)."""
+        answer = self.ask(READ, u16(address), f"READ 0x{address:04X}")
+        if len(answer.params) != page_bytes:
+            raise BootError(f"READ 0x{address:04X}: servo {self.ident} answered {len(answer.params)} bytes, "
+                            f"not a page of {page_bytes}")
+        return bytes(answer.params)
+
+    def go(self):
+        """GO once (the application may already run when the answer is lost): the answer, or
+        None when none came. Raises BootError when the bootloader says the application is not
+        valid."""
+        try:
+            answer = self.servo.exchange(GO)
+        except (NoAnswer, BadChecksum):
+            return None
+        if answer.code & ERR_CRC:
+            raise BootError(f"GO: servo {self.ident}: the application is not valid")
+        return answer

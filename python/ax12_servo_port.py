@@ -1,0 +1,90 @@
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""One servo on a serial port: an instruction packet to its ID, then its status packet.
+
+The port is any object with pyserial's write(), read(n), reset_input_buffer() and a writable
+`timeout` (seconds): a serial.Serial, or a test's stand-in. Packets are built and checked by
+python/ax12_packets.py. Status packets of other IDs (a servo answering late, or another master's
+exchange) are skipped; bytes that start no packet are dropped one at a time until a header
+comes, as a servo resyncs.
+"""
+import time
+
+import ax12_packets
+
+HEADER = 0xFF
+
+
+class NoAnswer(Exception):
+    """No whole status packet from the servo within the timeout."""
+
+
+class BadChecksum(Exception):
+    """A status packet of the servo's ID whose checksum is wrong."""
+
+
+class ServoPort:
+    def __init__(self, port, ident, timeout_s):
+        """ident: the servo's ID (0..253); timeout_s: how long an answer is waited for after the
+        request's last byte was handed to the port."""
+        self.port = port
+        self.ident = ident
+        self.timeout_s = timeout_s
+
+    def exchange(self, instruction, params=()):
+        """Sends instruction with params to the servo and returns its status packet
+        (ax12_packets.Packet: code is the error byte). Bytes waiting before the request are
+        dropped first, so a late answer to an earlier request is never taken for this one.
+        Raises NoAnswer or BadChecksum."""
+        self.port.reset_input_buffer()
+        self.port.write(ax12_packets.instruction_packet(self.ident, instruction, params))
+        return self.read_status(time.monotonic() + self.timeout_s)
+
+    def read_status(self, deadline):
+        """The next status packet of the servo's ID that arrives before deadline
+        (time.monotonic()). Raises NoAnswer or BadChecksum."""
+        buffer = bytearray()
+        while True:
+            packet = self._take_packet(buffer)
+            if packet is not None:
+                if packet.ident != self.ident:
+                    continue
+                if not packet.checksum_ok:
+                    raise BadChecksum(f"ID {self.ident}: status packet with a wrong checksum")
+                return packet
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise NoAnswer(f"ID {self.ident}: no answer within {self.timeout_s:g} s"
+                               + (f" ({len(buffer)} bytes of no whole packet)" if buffer else ""))
+            self.port.timeout = min(left, 0.05)
+            buffer += self.port.read(self._wanted(buffer))
+
+    @staticmethod
+    def _wanted(buffer):
+        """How many bytes complete the packet begun in buffer (at least 1)."""
+        if len(buffer) >= 4 and buffer[0] == buffer[1] == HEADER:
+            return max(1, buffer[3] + 4 - len(buffer))
+        return max(1, ax12_packets.SHORTEST - len(buffer))
+
+    @staticmethod
+    def _take_packet(buffer):
+        """Removes and returns the first whole packet at the start of buffer (leading bytes
+        that start no packet are dropped), or None when more bytes are needed."""
+        while buffer:
+            if buffer[0] != HEADER or (len(buffer) >= 2 and buffer[1] != HEADER):
+                del buffer[0]
+                continue
+            # FF FF FF...: the extra FF are header bytes too (ID 0xFF is no servo).
+            while len(buffer) >= 3 and buffer[2] == HEADER:
+                del buffer[0]
+            if len(buffer) < 4:
+                return None
+            if buffer[3] < 2:
+                del buffer[0]
+                continue
+            size = buffer[3] + 4
+            if len(buffer) < size:
+                return None
+            packet = ax12_packets.parse(bytes(buffer[:size]))
+            del buffer[:size]
+            return packet
+        return None

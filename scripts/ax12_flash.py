@@ -1,0 +1,236 @@
+#!/usr/bin/env python3
+# SPDX-License-Identifier: GPL-3.0-or-later
+"""scripts/ax12 flash: writes a new application to one servo over the Dynamixel bus, through
+its bootloader (docs/bootloader.md, section "Updating over the bus").
+
+Steps: the file is read and checked (python/ax12_app_image.py) before anything is sent; INFO
+to the servo (an application is asked into its bootloader with instruction 0x0A "BOOT"); the
+image checked against the part and the application area INFO gives; BEGIN, every PAGE (each
+tried again, up to --retries more times, after a lost or garbled answer or a CRC or read-back
+error), END; every page and the record read back and compared (unless --no-verify); GO; then
+the application must answer a PING and a READ of its Model Number and Firmware Version.
+Progress and steps on stderr, the result on stdout.
+
+Exit status: 0 done; 1 the servo or the transfer failed (the message says where); 2 a bad
+file, a file for another part or too large, bad arguments, or a port that cannot be opened.
+"""
+import argparse
+import os
+import sys
+import time
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(REPO, "python"))
+
+EXIT_DONE, EXIT_SERVO, EXIT_BAD_INPUT = 0, 1, 2
+ANSWER_TIMEOUT_S = 0.3      # per request; the bootloader answers at once, the pty may hold bytes
+ENTER_TIMEOUT_S = 1.5       # from the application's answer to BOOT to the bootloader's to INFO
+START_TIMEOUT_S = 2.0       # from GO to the application's answer to PING
+MODEL_NUMBER_ADDRESS, MODEL_BYTES = 0, 3  # Model Number (2 bytes), Firmware Version
+
+
+class BadInput(Exception):
+    """Exit 2: a bad file or argument, or a port that cannot be opened."""
+
+
+def arguments(argv):
+    ap = argparse.ArgumentParser(
+        prog="scripts/ax12 flash",
+        description="Write an application (Intel HEX) to one servo over the Dynamixel bus, through "
+                    "its bootloader (docs/bootloader.md \"Updating over the bus\").")
+    ap.add_argument("firmware", metavar="FIRMWARE.hex",
+                    help="the application's Intel HEX, e.g. build/firmware/ax12-ax12-atmega328p.hex")
+    ap.add_argument("--port", required=True, metavar="DEV", help="the bus's serial port (a pty of ax12-emu too)")
+    ap.add_argument("--id", required=True, type=int, metavar="N", dest="ident", help="the servo's ID, 0..253")
+    ap.add_argument("--baud", type=int, default=1000000, metavar="BPS",
+                    help="the servo's bit rate (default 1000000)")
+    ap.add_argument("--retries", type=int, default=3, metavar="K",
+                    help="how many more times a request is sent after a lost or garbled answer, a page "
+                         "after a CRC or read-back error, and GO while the servo is still in its "
+                         "bootloader (default 3)")
+    ap.add_argument("--no-verify", action="store_true", help="do not read the pages back after writing")
+    ap.add_argument("--build", default=os.path.join(REPO, "build"), help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if not 0 <= args.ident <= 253:
+        ap.error(f"--id {args.ident}: a servo's ID is 0..253")
+    if args.baud <= 0:
+        ap.error(f"--baud {args.baud}: a bit rate is positive")
+    if args.retries < 0:
+        ap.error(f"--retries {args.retries}: 0 or more")
+    return args
+
+
+class TransferError(Exception):
+    """Exit 1: what was written does not read back."""
+
+
+def say(text):
+    print(f"ax12 flash: {text}", file=sys.stderr, flush=True)
+
+
+class Progress:
+    """A bar on stderr when it is a terminal, redrawn in place; otherwise one line at the start
+    and one at the end."""
+
+    WIDTH = 40
+
+    def __init__(self, label, total, stream=sys.stderr):
+        self.label, self.total, self.stream = label, total, stream
+        self.live = stream.isatty()
+        if not self.live:
+            print(f"ax12 flash: {label}: {total} pages", file=stream, flush=True)
+        self.update(0)
+
+    def update(self, done):
+        if self.live:
+            filled = self.WIDTH * done // max(self.total, 1)
+            self.stream.write(f"\r{self.label} [{'#' * filled}{'.' * (self.WIDTH - filled)}] {done}/{self.total}")
+            self.stream.flush()
+
+    def finish(self):
+        if self.live:
+            self.stream.write("\n")
+        else:
+            print(f"ax12 flash: {self.label}: done", file=self.stream, flush=True)
+
+
+def open_serial(device, baud):
+    import serial  # pyserial, from the project's venv (scripts/setup)
+    try:
+        return serial.Serial(device, baud, timeout=0.05, write_timeout=2)
+    except (serial.SerialException, OSError, ValueError) as error:
+        raise BadInput(f"cannot open {device} at {baud} bps: {error}")
+
+
+def enter_bootloader(client, baud, boot):
+    """The BootInfo of the servo's bootloader, asking a running application into it first."""
+    answer = client.info(attempts=2)
+    if answer is not None and boot.parse_info(answer.params):
+        return boot.parse_info(answer.params)
+    if answer is None:
+        # An application with Status Return Level 0 answers only PING.
+        if client.ping(attempts=2) is None:
+            raise boot.BootError(f"servo {client.ident} does not answer at {baud} bps")
+    elif not (answer.code & boot.ERR_INSTRUCTION and not answer.params):
+        raise boot.BootError(f"servo {client.ident} answers INFO with error 0x{answer.code:02X} and "
+                             f"{len(answer.params)} parameters: neither an application nor the bootloader")
+    say(f"servo {client.ident} runs its application: asking it into the bootloader")
+    reply = client.request_bootloader()
+    if reply is not None and reply.code & boot.ERR_INSTRUCTION:
+        raise boot.BootError(f"servo {client.ident}'s application does not know instruction 0x0A \"BOOT\": "
+                             f"it has no bootloader to enter (an ATmega88, or older firmware: flash it over ISP)")
+    deadline = time.monotonic() + ENTER_TIMEOUT_S
+    while time.monotonic() < deadline:
+        answer = client.info()
+        info = answer is not None and boot.parse_info(answer.params)
+        if info:
+            return info
+    raise boot.BootError(f"servo {client.ident} did not answer as a bootloader within {ENTER_TIMEOUT_S:g} s "
+                         f"of the request to enter it")
+
+
+def write_image(client, image, info, verify, image_module):
+    """BEGIN, the pages, END, and (verify) every page and the record read back."""
+    pages = image.pages(info.page_bytes)
+    client.begin(len(image.data), image.crc)
+    progress = Progress("writing", len(pages))
+    for done, (address, data) in enumerate(pages, 1):
+        client.page(address, data, image_module.crc16(data))
+        progress.update(done)
+    progress.finish()
+    client.end()
+    if not verify:
+        return
+    record_at = info.app_area_bytes - info.page_bytes
+    expected = pages + [(record_at, image.record_page(info.page_bytes))]
+    progress = Progress("verifying", len(expected))
+    for done, (address, data) in enumerate(expected, 1):
+        got = client.read_page(address, len(data))
+        if got != data:
+            first = next(i for i in range(len(data)) if got[i] != data[i])
+            raise TransferError(f"verify: flash 0x{address + first:04X} reads 0x{got[first]:02X}, "
+                                f"written 0x{data[first]:02X}")
+        progress.update(done)
+    progress.finish()
+
+
+STILL_IN_BOOTLOADER = "still in the bootloader"
+
+
+def application_answer(client, boot):
+    """(Model Number, Firmware Version) of the application once it answers PING and a READ of
+    them; (None, None) when it answers PING but never the READ (Status Return Level 0);
+    STILL_IN_BOOTLOADER when the READ is answered with Instruction Error."""
+    deadline = time.monotonic() + START_TIMEOUT_S
+    while client.ping() is None:
+        if time.monotonic() > deadline:
+            raise boot.BootError(f"servo {client.ident} does not answer PING after GO")
+    while time.monotonic() <= deadline:
+        answer = client.application_read(MODEL_NUMBER_ADDRESS, MODEL_BYTES)
+        if answer is not None and answer.code & boot.ERR_INSTRUCTION:
+            return STILL_IN_BOOTLOADER
+        if answer is not None and not answer.code and len(answer.params) == MODEL_BYTES:
+            return answer.params[0] | (answer.params[1] << 8), answer.params[2]
+    info = client.info()
+    if info is not None and boot.parse_info(info.params):
+        return STILL_IN_BOOTLOADER
+    return None, None
+
+
+def start_application(client, boot, retries):
+    """GO, then what application_answer finds; GO is sent again (up to retries more times)
+    while the servo is still in its bootloader, as after a lost GO."""
+    for _ in range(retries + 1):
+        client.go()
+        result = application_answer(client, boot)
+        if result != STILL_IN_BOOTLOADER:
+            return result
+    raise boot.BootError(f"servo {client.ident} is still in its bootloader after GO ({retries + 1} attempts)")
+
+
+def main(argv=None, open_port=open_serial):
+    args = arguments(argv)
+    import ax12_build
+    ax12_build.ensure(args.build)
+    import ax12_app_image as image_module
+    import ax12_boot_client as boot
+    from ax12_servo_port import ServoPort
+
+    port = None
+    try:
+        image = image_module.load(args.firmware)
+        port = open_port(args.port, args.baud)
+        client = boot.BootClient(ServoPort(port, args.ident, ANSWER_TIMEOUT_S), args.retries)
+        info = enter_bootloader(client, args.baud, boot)
+        mcu = image_module.mcu_of_signature(info.signature)
+        if mcu is None:
+            raise boot.BootError(f"servo {args.ident}'s bootloader reports the signature "
+                                 f"{info.signature.hex(' ').upper()}, no part this tool knows")
+        say(f"servo {args.ident}: bootloader {info.version} on an {mcu}, page {info.page_bytes} B, "
+            f"application area 0x0000-0x{info.app_area_bytes - 1:04X}, application "
+            f"{'valid' if info.state & boot.STATE_APP_VALID else 'not valid'}")
+        image.check_target(mcu, info.app_area_bytes, info.page_bytes)
+        write_image(client, image, info, not args.no_verify, image_module)
+        model, version = start_application(client, boot, args.retries)
+    except (image_module.ImageError, BadInput) as error:
+        say(str(error))
+        return EXIT_BAD_INPUT
+    except (boot.BootError, TransferError) as error:
+        say(str(error))
+        return EXIT_SERVO
+    except KeyboardInterrupt:
+        say("interrupted: a servo stopped between BEGIN and END stays in its bootloader; run the command again")
+        return EXIT_SERVO
+    finally:
+        if port is not None:
+            port.close()
+    pages = len(image.pages(info.page_bytes))
+    started = (f"Model Number {model}, Firmware Version {version}" if model is not None
+               else "it answers PING, not READ (Status Return Level 0)")
+    print(f"servo {args.ident}: {os.path.basename(args.firmware)} written ({len(image.data)} B, {pages} pages)"
+          f"{', verified' if not args.no_verify else ', not verified'}; the application runs: {started}")
+    return EXIT_DONE
+
+
+if __name__ == "__main__":
+    sys.exit(main())
