@@ -14,7 +14,7 @@
 
 #define CT_ITEMS(X) \
   X(MODEL_NUMBER,          0, 2, CT_R,    CT_R,    0,    0,   12,   12) \
-  X(FIRMWARE_VERSION,      2, 1, CT_R,    CT_R,    0,    0,   DXL_FIRMWARE_VERSION, DXL_FIRMWARE_VERSION) \
+  X(FIRMWARE_VERSION,      2, 1, CT_R,    CT_R,    0,    0,   DXL_FIRMWARE_VERSION_AX12, DXL_FIRMWARE_VERSION_AX12A) \
   X(ID,                    3, 1, CT_RW,   CT_RW,   0,  253,    1,    1) \
   X(BAUD_RATE,             4, 1, CT_RW,   CT_RW,   0,  254,    1,    1) \
   X(RETURN_DELAY_TIME,     5, 1, CT_RW,   CT_RW,   0,  254,  250,  250) \

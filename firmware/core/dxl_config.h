@@ -21,10 +21,12 @@
 
 /* This firmware's own version number, reported at address 2: one per profile, so a client can
  * tell which build a servo runs (after an update over the bus, docs/bootloader.md). */
+#define DXL_FIRMWARE_VERSION_AX12 1
+#define DXL_FIRMWARE_VERSION_AX12A 2
 #if DXL_PROFILE == DXL_PROFILE_AX12A
-#define DXL_FIRMWARE_VERSION 2
+#define DXL_FIRMWARE_VERSION DXL_FIRMWARE_VERSION_AX12A
 #else
-#define DXL_FIRMWARE_VERSION 1
+#define DXL_FIRMWARE_VERSION DXL_FIRMWARE_VERSION_AX12
 #endif
 
 /* Tables that never change live in flash on the AVR (read with LPM through the __flash

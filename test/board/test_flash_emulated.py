@@ -66,9 +66,8 @@ BOOT_ELF = os.path.join(FIRMWARE_DIR, "ax12-boot-atmega328p.elf")
 FRONT_DOOR = os.path.join(REPO, "scripts", "ax12")
 HEX = {profile: os.path.join(FIRMWARE_DIR, f"ax12-{profile}-atmega328p.hex") for profile in ("ax12", "ax12a")}
 ITEM = {item.name: item for item in T.ITEMS}
-# Firmware Version per profile: firmware/core/dxl_config.h's DXL_FIRMWARE_VERSION. Not from
-# ax12_table: its generator is built in one profile, so both of its columns hold that one's.
-FIRMWARE_VERSION = {"ax12": 1, "ax12a": 2}
+# Firmware Version per profile, as the generated table gives each profile's default.
+FIRMWARE_VERSION = {profile: getattr(ITEM["FIRMWARE_VERSION"], f"default_{profile}") for profile in ("ax12", "ax12a")}
 # An EEPROM setting of ID 2 written before the updates: the bootloader never writes the EEPROM.
 KEPT_SETTING = (T.HIGHEST_LIMIT_TEMP, 77)
 
