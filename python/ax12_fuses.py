@@ -29,6 +29,10 @@ class Mcu:
 # The ATmega88's application (8014 B) does not fit beside any boot section (the smallest,
 # 256 B, leaves 7936 B): until it is at most 6144 B (the flash goal in README.md) it has no
 # bootloader and may use the whole flash.
+# The parts whose builds carry the bootloader (firmware/boot): their board gets the merged HEX
+# (application, record page, bootloader) and BOOTRST programmed.
+BOOTLOADER_MCUS = {"atmega328p"}
+
 MCUS = {
     "atmega88": Mcu("atmega88", "m88", bytes([0x1E, 0x93, 0x0A]), 8192, 64, 2048, 8192),
     "atmega328p": Mcu("atmega328p", "m328p", bytes([0x1E, 0x95, 0x0F]), 32768, 128, 2048, 32768 - 2048 - 128),

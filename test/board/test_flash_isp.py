@@ -54,8 +54,10 @@ def test_dry_run_command_line(mcu, part, profile):
     assert option(words, "-p") == part
     assert option(words, "-c") == "usbasp"
     assert option(words, "-P") == "usb"
-    hex_path = os.path.join(BUILD, "firmware", f"ax12-{profile}-{mcu}.hex")
-    fuses = EXPECTED_FUSES[mcu]
+    # The ATmega328P gets its bootloader: the merged HEX, BOOTRST programmed.
+    boot = mcu in ax12_fuses.BOOTLOADER_MCUS
+    hex_path = os.path.join(BUILD, "firmware", f"ax12-{profile}-{mcu}{'-merged' if boot else ''}.hex")
+    fuses = (EXPECTED_WITH_BOOT if boot else EXPECTED_FUSES)[mcu]
     # Flash first (the part may still run on its 1 MHz internal clock), then the fuses.
     assert ops == [f"flash:w:{hex_path}:i"] + [f"{name}:w:0x{value:02X}:m" for name, value in fuses.items()]
     assert "-n" not in words and "-F" not in words and "-e" not in words
@@ -70,14 +72,30 @@ def test_defaults_and_other_hex(tmp_path):
     shutil.copy(os.path.join(BUILD, "firmware", "ax12-ax12a-atmega328p.hex"), own)
     run = flash_isp("--programmer", "avrisp2", "--mcu", "atmega328p", "--hex", str(own), "--dry-run")
     assert run.returncode == 0, run.stderr
-    assert operations(run.stdout)[1][0] == f"flash:w:{own}:i"
+    ops = operations(run.stdout)[1]
+    assert ops[0] == f"flash:w:{own}:i"
+    assert ops[2] == "hfuse:w:0xD3:m", "an application alone: BOOTRST unprogrammed"
+    merged = tmp_path / "whole.hex"
+    shutil.copy(os.path.join(BUILD, "firmware", "ax12-ax12a-atmega328p-merged.hex"), merged)
+    run = flash_isp("--programmer", "avrisp2", "--mcu", "atmega328p", "--hex", str(merged), "--dry-run")
+    assert run.returncode == 0, run.stderr
+    assert operations(run.stdout)[1][2] == "hfuse:w:0xD2:m", "a whole flash with its bootloader: BOOTRST programmed"
+
+
+def test_app_only_on_a_part_with_a_bootloader():
+    run = flash_isp("--programmer", "usbasp", "--mcu", "atmega328p", "--app-only", "--dry-run")
+    assert run.returncode == 0, run.stderr
+    assert operations(run.stdout)[1] == ["flash:w:" + os.path.join(BUILD, "firmware", "ax12-ax12-atmega328p.hex") + ":i",
+                                         "lfuse:w:0xD7:m", "hfuse:w:0xD3:m", "efuse:w:0xFC:m"]
 
 
 def test_fuses_only():
     run = flash_isp("--programmer", "usbasp", "--mcu", "atmega328p", "--fuses-only", "--dry-run")
     assert run.returncode == 0, run.stderr
     words, ops = operations(run.stdout)
-    assert ops == ["lfuse:w:0xD7:m", "hfuse:w:0xD3:m", "efuse:w:0xFC:m"]
+    assert ops == ["lfuse:w:0xD7:m", "hfuse:w:0xD2:m", "efuse:w:0xFC:m"]
+    run = flash_isp("--programmer", "usbasp", "--mcu", "atmega328p", "--fuses-only", "--app-only", "--dry-run")
+    assert operations(run.stdout)[1] == ["lfuse:w:0xD7:m", "hfuse:w:0xD3:m", "efuse:w:0xFC:m"]
 
 
 def test_fuse_bytes():
@@ -148,8 +166,14 @@ def test_image_past_the_application_area(tmp_path, address):
     line = ":" + (record + bytes([(-sum(record)) & 0xFF])).hex().upper()
     big = tmp_path / "big.hex"
     big.write_text(line + "\n:00000001FF\n")
-    refused(flash_isp("--programmer", "usbasp", "--mcu", "atmega328p", "--hex", str(big), "--dry-run"),
+    refused(flash_isp("--programmer", "usbasp", "--mcu", "atmega328p", "--hex", str(big), "--app-only", "--dry-run"),
             "outside the atmega328p's application area")
+    if address >= 0x7800:  # bytes in the boot section but no application from 0: no whole flash either
+        refused(flash_isp("--programmer", "usbasp", "--mcu", "atmega328p", "--hex", str(big), "--dry-run"),
+                "not a whole atmega328p flash with its bootloader")
+    else:
+        refused(flash_isp("--programmer", "usbasp", "--mcu", "atmega328p", "--hex", str(big), "--dry-run"),
+                "outside the atmega328p's application area")
 
 
 def test_hex_with_fuses_only_refused():
@@ -216,13 +240,15 @@ def test_real_avrdude_against_a_simulated_programmer(fake_programmer):
     run = flash_isp("--programmer", "stk500v1", "--port", fake_programmer.port, "--mcu", mcu)
     assert run.returncode == 0, run.stderr[-3000:]
     assert "failed" not in run.stderr and "error" not in run.stderr, run.stderr[-3000:]
-    image = IntelHex(os.path.join(BUILD, "firmware", f"ax12-ax12-{mcu}.hex"))
+    boot = mcu in ax12_fuses.BOOTLOADER_MCUS  # the merged HEX: application, record page, bootloader
+    image = IntelHex(os.path.join(BUILD, "firmware", f"ax12-ax12-{mcu}{'-merged' if boot else ''}.hex"))
     written = bytes(fake_programmer.flash)
-    assert written[:len(image)] == image.tobinstr(start=0, size=len(image))
-    assert set(written[len(image):]) == {0xFF}
+    for start, stop in image.segments():
+        assert written[start:stop] == image.tobinstr(start=start, end=stop - 1)
+    assert sum(1 for b in written if b != 0xFF) == sum(1 for a in image.addresses() if image[a] != 0xFF)
     assert re.search(r"\d+ bytes of flash verified", run.stderr)
     assert fake_programmer.erased == 1
-    assert fake_programmer.fuses == ax12_fuses.fuses(mcu)
+    assert fake_programmer.fuses == ax12_fuses.fuses(mcu, bootloader=boot)
 
     fake_programmer.eeprom[:27] = bytes(range(27))  # settings saved by the firmware
     run = flash_isp("--programmer", "stk500v1", "--port", fake_programmer.port, "--mcu", mcu, "--profile", "ax12a")
