@@ -308,6 +308,40 @@ def dashboard_cost(emu, fw, seconds, row):
             "dashboard_loop_ratio_%s" % view)
 
 
+def bootloader_figures(emu, fw, build, row):
+    """The bootloader's size, and an update of one servo of three (ATmega328P, the ax12a build
+    over the ax12 one) with `scripts/ax12 flash` through ax12-emu's pty in real time behind the
+    default U2D2 model, at 1 Mbps and at 57 600 baud (the servos' Baud Rate register 34): the
+    wall time of the whole command (entering the bootloader, every page written and read back,
+    the application started and asked its version), with the emulator's own check that it kept
+    real time (its speed and worst lag) beside it."""
+    boot_flash, _ = avr_size(os.path.join(fw, "ax12-boot-atmega328p.elf"))
+    row("bootloader", "ATmega328P bootloader flash", boot_flash, "B", "<= 2048", "bootloader_flash_bytes")
+    image = os.path.join(fw, "ax12-ax12a-atmega328p.hex")
+    for baud_reg, bps, label in ((1, 1000000, "1 Mbps"), (34, 57600, "57 600 baud")):
+        serve = Serve(emu, fw, "1,2,3", ("--mcu", "atmega328p", "--baud", str(baud_reg)))
+        try:
+            start = time.monotonic()
+            run = subprocess.run([sys.executable, os.path.join(REPO, "scripts", "ax12_flash.py"), "--build", build,
+                                  "--port", serve.device, "--id", "2", "--baud", str(bps), image],
+                                 capture_output=True, text=True, timeout=600)
+            seconds = time.monotonic() - start
+        finally:
+            stats = serve.stop()
+        if run.returncode != 0:
+            raise RuntimeError("scripts/ax12 flash failed: " + run.stdout + run.stderr)
+        key = "bootloader_update_%s_s" % ("1m" if bps == 1000000 else "57600")
+        row("bootloader", "update of one servo at %s (%d B), wall" % (label, ax12_app_bytes(image)), seconds, "s",
+            "", key)
+        row("bootloader", "  emulator speed / worst lag meanwhile",
+            "%.2fx / %.1f ms" % (stats.get("speed", 0), stats.get("worst_lag_ms", 0)), "", "1.00x real time")
+
+
+def ax12_app_bytes(hex_path):
+    from intelhex import IntelHex
+    return len(IntelHex(hex_path))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--build", required=True)
@@ -317,6 +351,8 @@ def main():
                     help="only the DynamixelSDK loop per USB adapter kind and its wire-time floor")
     ap.add_argument("--dashboard-only", action="store_true",
                     help="only the 30-servo SDK loop without and with the dashboard open")
+    ap.add_argument("--bootloader-only", action="store_true",
+                    help="only the bootloader's size and the time of an update over the bus")
     a = ap.parse_args()
     ax12_build.use(a.build)
     fw = os.path.join(a.build, "firmware")
@@ -331,6 +367,15 @@ def main():
         rows.append((section, name, value, unit, goal))
         if key:
             r[key] = value
+
+    if a.bootloader_only:
+        bootloader_figures(emu, fw, a.build, row)
+        for _, name, value, unit, goal in rows:
+            print("%-52s %10s %-8s %s" % (name, value if isinstance(value, str) else "%.3f" % value, unit, goal))
+        with open(a.out, "w") as f:
+            json.dump(r, f, indent=1, sort_keys=True)
+        print("\nbench: wrote %s" % a.out)
+        return
 
     if a.dashboard_only:
         dashboard_cost(emu, fw, 3 if a.quick else 6, row)
@@ -360,6 +405,8 @@ def main():
         row("size", "%s deepest stack" % mcu, stack, "B", "", "%s_stack_bytes" % mcu)
         row("size", "%s RAM incl. stack" % mcu, ram + stack, "B", "<= %d (75 %%)" % (RAM_ATMEGA88 * 3 // 4) if goal88 else "",
             "%s_ram_with_stack_bytes" % mcu)
+
+    bootloader_figures(emu, fw, a.build, row)
 
     modules, modules_total = flash_by_module(a.build)
     for name, size in modules:
