@@ -155,6 +155,20 @@ static void test_the_application_starts_after_the_check_and_enters_the_bootloade
   open_bus(&h, NULL);
   assert_int_equal(firmware_version(&h, UPDATED_ID), 1);
   assert_true(h.world->servos[1]->avr->pc < BOOT_START);
+  /* From power-up to the application listening: the '#' window (30 ms) and the check of the
+   * application's CRC. */
+  servo_t *const servo = h.world->servos[1];
+  servo_power_cycle(servo);
+  const sim_cycles_t powered_at = h.world->now;
+  while (!(servo->avr->pc < BOOT_START && servo_listening(servo))) {
+    world_run_until(h.world, h.world->now + sim_us(100));
+    assert_true(h.world->now - powered_at < sim_ms(200));
+  }
+  const double start_ms = (double)(h.world->now - powered_at) / (double)sim_ms(1);
+  print_message("the application listens %.1f ms after power-up\n", start_ms);
+  assert_true(start_ms > 30.0 && start_ms < 60.0);
+  world_run_until(h.world, h.world->now + sim_ms(20));
+  assert_int_equal(firmware_version(&h, UPDATED_ID), 1);
   /* The bootloader's INFO is an unknown instruction to the application. */
   assert_int_equal(ask(&h, UPDATED_ID, INST_INFO, H_NO_PARAMS, 6, NULL), 0x40);
   /* As is instruction 0x0A without its key. */
