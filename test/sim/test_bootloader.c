@@ -2,10 +2,10 @@
 /* The bootloader ELF (firmware/boot, docs/bootloader.md) beside the application ELF on an
  * ATmega328P in simavr, a master on the simulated wire: the application starts after the
  * bootloader's check; it enters the bootloader on instruction 0x0A "BOOT" while another servo
- * on the bus carries on; an update to the ax12a build page by page, and back; a power cut at
- * every kind of moment of an update leaves a servo that answers in its bootloader and takes a
- * new update; the stock '#' trigger at 57 142 bps; the settings (ID, baud) kept throughout.
- * Simulated time: an update's duration is exact. */
+ * on the bus carries on; an update to the ax12a build page by page, and back; a power cut
+ * after BEGIN, after every page and after END leaves a servo that answers (in its bootloader,
+ * or after END in the new application) and takes a new update; the stock '#' trigger at
+ * 57 142 bps; the settings (ID, baud) kept throughout. Simulated time throughout. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
