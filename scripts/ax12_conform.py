@@ -136,6 +136,9 @@ for _item in T.ITEMS:
         TITLE_ADDR[_item.title] = _item.addr
 # Bytes of a READ reply no two servos share: the present values and Moving.
 PRESENT = set(range(T.PRESENT_POSITION, T.PRESENT_TEMPERATURE + 1)) | {T.MOVING}
+# Bytes that are the device's own: its Firmware Version (the report's header gives it). Not
+# compared in READ replies or tables.
+DEVICE_OWN = {T.FIRMWARE_VERSION}
 # Condition bits of the error byte that come from measurements (supply voltage, temperature,
 # load), which no record can foresee: not compared (a note says when the device set them).
 MEASURED_CONDITIONS = T.ERR_VOLTAGE | T.ERR_OVERHEATING | T.ERR_OVERLOAD
@@ -790,7 +793,7 @@ class Conform:
                     ignore[frame(m)[0] + 2] = MEASURED_CONDITIONS
                 if window and len(pk) == 6 + window[1]:
                     for i in range(window[1]):
-                        if window[0] + i in PRESENT:
+                        if window[0] + i in PRESENT | DEVICE_OWN:
                             ignore[5 + i] = 0xFF
                 ignore[-1] = 0xFF  # the checksum follows them: checked for validity instead
                 mask += ignore
@@ -881,7 +884,8 @@ class Conform:
         wrong = []
         for addr in sorted(checked):
             item = ITEM_AT.get(addr)
-            if item is None or addr != item.addr or addr in PRESENT or access(item, self.profile) == "NONE":
+            if (item is None or addr != item.addr or addr in PRESENT | DEVICE_OWN
+                    or access(item, self.profile) == "NONE"):
                 continue
             want = sum(expect[item.addr + k] << (8 * k) for k in range(item.size))
             have = sum(got[item.addr + k] << (8 * k) for k in range(item.size))
