@@ -19,6 +19,11 @@
 #define DXL_HAS_BOOTLOADER 0
 #endif
 
+/* 1 in the bootloader's build: dxl_crc16_update() through avr-libc (dxl_image.c). */
+#ifndef DXL_CRC16_AVR_LIBC
+#define DXL_CRC16_AVR_LIBC 0
+#endif
+
 /* This firmware's own version number, reported at address 2: one per profile, so a client can
  * tell which build a servo runs (after an update over the bus, docs/bootloader.md). */
 #define DXL_FIRMWARE_VERSION_AX12 1
