@@ -35,7 +35,10 @@ from aiohttp import WSMsgType, web  # noqa: E402
 WEB = os.path.join(REPO, "web", "dashboard")
 UPLOT = os.path.join(WEB, "node_modules", "uplot", "dist")
 TELEMETRY_HZ = 20         # the selected servo's charts
-TABLE_HZ = 5              # every servo's row and control table
+TABLE_HZ = 5              # every servo's row; the shown servo's control table
+POINTS_PERIOD_S = 0.1     # a page's chart points, batched: while its charts are on screen
+POINTS_PERIOD_OFF_S = 1.0  # and while they are not
+POINTS_KEPT = 100         # points of a batch at most (5 s)
 PACKET_BATCHES_KEPT = 200  # for a page opened later: 10 s of batches (50 ms apart at most)
 PAGE_QUEUE = 2000         # lines waiting for a page before it is dropped
 SEND_TIMEOUT_S = 5.0
@@ -60,6 +63,8 @@ class Emulator:
         self.pages = {}               # open WebSocket -> its queue of lines to send
         self.selected = {}            # open WebSocket -> the slot it shows
         self.monitoring = {}          # open WebSocket -> whether its bus monitor is on screen
+        self.shown_on_screen = {}     # open WebSocket -> whether its servo's charts are on screen
+        self.points = {}              # open WebSocket -> its servo's points not sent yet
 
     async def connect(self):
         self.reader, self.writer = await asyncio.open_unix_connection(self.path, limit=1 << 24)
@@ -68,15 +73,15 @@ class Emulator:
         return events_reader, charts_reader
 
     async def subscribe(self):
-        """While any page is open: every servo with its control table TABLE_HZ times a second
-        and the packets on one connection; the servos the pages show, without tables,
-        TELEMETRY_HZ times a second on another. Nothing while no page is open."""
+        """While any page is open: every servo TABLE_HZ times a second and the packets on one
+        connection; the servos the pages show, TELEMETRY_HZ times a second with their control
+        tables TABLE_HZ times a second, on another. Nothing while no page is open."""
         on = bool(self.pages)
         self.events_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": TABLE_HZ if on else 0,
-                                             "table": True, "packets": on}).encode() + b"\n")
+                                             "packets": on}).encode() + b"\n")
         shown = sorted({slot for slot in self.selected.values() if isinstance(slot, int)})
         self.charts_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": TELEMETRY_HZ if on and shown else 0,
-                                             "servos": shown}).encode() + b"\n")
+                                             "table_hz": TABLE_HZ, "servos": shown}).encode() + b"\n")
         await self.events_writer.drain()
         await self.charts_writer.drain()
 
@@ -101,7 +106,10 @@ class Emulator:
                     return reply
 
     async def pump_charts(self, charts_reader):
-        """The shown servos' telemetry: each page gets its own servo's ("partial")."""
+        """The shown servos' telemetry: each page gets its own servo's points, in batches
+        (POINTS_PERIOD_S apart while its servo's section is on screen, POINTS_PERIOD_OFF_S
+        otherwise; at once for a servo just selected): 20 points a second drawn 10 times a
+        second, and a page at its list is woken once a second for them."""
         while True:
             line = await charts_reader.readline()
             if not line:
@@ -110,10 +118,23 @@ class Emulator:
                 continue
             event = json.loads(line)
             by_slot = {s["slot"]: s for s in event["servos"]}
+            now = time.monotonic()
             for ws in list(self.pages):
-                servo = by_slot.get(self.selected.get(ws))
-                if servo is not None:
-                    self.relay(ws, json.dumps(dict(event, servos=[servo], partial=True), separators=(",", ":")))
+                slot = self.selected.get(ws)
+                servo = by_slot.get(slot)
+                if servo is None:
+                    continue
+                batch = self.points.setdefault(ws, {"slot": slot, "points": [], "sent": 0.0})
+                if batch["slot"] != slot:
+                    batch.update(slot=slot, points=[], sent=0.0)
+                servo["time_us"] = event["time_us"]
+                batch["points"].append(servo)
+                del batch["points"][:-POINTS_KEPT]
+                period = POINTS_PERIOD_S if self.shown_on_screen.get(ws) else POINTS_PERIOD_OFF_S
+                if now - batch["sent"] >= period:
+                    self.relay(ws, json.dumps({"event": "points", "slot": slot, "points": batch["points"]},
+                                              separators=(",", ":")))
+                    batch.update(points=[], sent=now)
 
     async def pump_events(self, events_reader):
         """Relays the whole telemetry and the packets to every page until the emulator goes
@@ -227,6 +248,9 @@ async def answer(emu, ws, msg):
                 emu.relay(ws, batch)
         emu.monitoring[ws] = on
         return None
+    if kind == "shown":  # the page's servo section (charts, control table) came on screen or left it
+        emu.shown_on_screen[ws] = bool(msg.get("on"))
+        return None
     try:
         if kind == "write":
             return await page_write(emu, msg)
@@ -269,6 +293,8 @@ async def websocket(request):
         emu.pages.pop(ws, None)
         emu.selected.pop(ws, None)
         emu.monitoring.pop(ws, None)
+        emu.shown_on_screen.pop(ws, None)
+        emu.points.pop(ws, None)
         sender.cancel()
         if not emu.pages:
             await emu.subscribe()

@@ -11,6 +11,8 @@ const MONITOR_PERIOD_MS = 500;  // the monitor is redrawn at most this often
 const state = {
   ws: null, items: [], servos: [], selected: null, history: new Map(), charts: [], profile: "ax12",
   packets: [], nextReq: 1, overview: null, overviewSlots: [], overviewHistory: null,
+  streamSlot: null, // the servo whose points come in batches (20 a second): the selected one
+  table: null,      // the selected servo's control table, as its last batch of points had it
 };
 
 const $ = (id) => document.getElementById(id);
@@ -34,6 +36,7 @@ function record(time_s, s) {
       supply: [] };
     state.history.set(s.slot, h);
   }
+  if (h.t.length && time_s <= h.t[h.t.length - 1]) return; // a point the history has already
   h.t.push(time_s);
   h.goal.push(s.goal_position ?? null);
   h.present.push(s.present_position ?? null);
@@ -77,17 +80,20 @@ function servoRow(slot) {
 }
 
 function renderServos() {
+  if (!listVisible) return; // drawn again when it comes on screen
   const fmt = (v, d) => (v === undefined || v === null ? "–" : Number(v).toFixed(d));
   for (const s of state.servos) {
     const tr = servoRow(s.slot);
-    tr.className = s.slot === state.selected ? "selected" : "";
+    const rowClass = s.slot === state.selected ? "selected" : "";
+    if (tr.className !== rowClass) tr.className = rowClass;
     const values = [s.slot, s.id ?? "–", s.goal_position ?? "–", s.present_position ?? "–",
       s.present_speed === undefined ? "–" : signed10(s.present_speed),
       s.present_load === undefined ? "–" : signed10(s.present_load), fmt(s.duty, 2), fmt(s.motor_current_a, 2),
       fmt(s.winding_c, 1), fmt(s.case_c, 1), fmt(s.supply_v, 2), s.led ? "on" : "off", s.torque_enable ? "on" : "off",
       s.moving ?? "–", alarmsText(s)];
     values.forEach((v, i) => { if (tr.cells[i].textContent !== String(v)) tr.cells[i].textContent = v; });
-    tr.cells[14].className = s.conditions ? "alarm text" : "text";
+    const alarmClass = s.conditions ? "alarm text" : "text";
+    if (tr.cells[14].className !== alarmClass) tr.cells[14].className = alarmClass;
   }
 }
 
@@ -174,6 +180,13 @@ const screenWatch = new IntersectionObserver((entries) => {
   drawCharts();
 });
 
+// One chart redraw per frame at most, and none while no chart is on screen.
+function scheduleDraw() {
+  if (state.drawPending || onScreen.size === 0) return;
+  state.drawPending = true;
+  requestAnimationFrame(() => { state.drawPending = false; drawCharts(); });
+}
+
 function drawCharts() {
   if (onScreen.has($("overview"))) drawOverview();
   const h = state.history.get(state.selected);
@@ -220,11 +233,11 @@ function buildTable() {
   }
 }
 
-function updateTable(s) {
-  if (!s || !s.table) return;
+function updateTable(table) {
+  if (!table || !shownVisible) return;
   for (const item of state.items) {
     const td = $("value-" + item.addr);
-    const text = String(itemValue(s.table, item));
+    const text = String(itemValue(table, item));
     if (td && td.textContent !== text) td.textContent = text;
   }
 }
@@ -319,6 +332,13 @@ function packetRowHtml(p) {
 // The monitor is drawn only while it is on screen (the packets are kept all the same).
 let monitorTimer = null;
 let monitorVisible = false;
+// The servo list and the selected servo's section (charts, control table) are updated only
+// while on screen; the server sends the section's points more often while it is.
+let listVisible = false;
+let shownVisible = false;
+function sendShownState() {
+  if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify({ type: "shown", on: shownVisible }));
+}
 function sendMonitorState() {
   if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify({ type: "monitor", on: monitorVisible }));
 }
@@ -367,35 +387,50 @@ function exportCsv() {
 
 function select(slot) {
   state.selected = slot;
+  state.table = null; // until the new servo's first points
   if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify({ type: "select", slot }));
   const s = state.servos.find((x) => x.slot === slot);
   $("selected-name").textContent = s ? `${slot} (ID ${s.id ?? "?"})` : "–";
   buildTable();
-  if (s) { updateTable(s); fillWorld(s); }
+  if (s) fillWorld(s);
   renderServos();
   drawCharts();
 }
 
-// Events come whole (every servo, with control tables) 5 times a second, and with only the
-// servo shown ("partial") in between, 20 a second in all: its charts take each; the list, the
-// table and the overview of every servo take the whole ones.
+// Events come whole (every servo, without control tables) 5 times a second: the list, the
+// overview and the charts of the servos not shown take them. The servo shown comes 20 points a
+// second in batches ("points": 10 a second while its section is on screen, once a second
+// otherwise), with its control table 5 times a second: its charts and its table take them.
 function onTelemetry(event) {
   state.profile = event.profile;
-  for (const s of event.servos) record(event.time_us / 1e6, s);
-  if (!event.partial) recordOverview(event);
-  if (!state.drawPending) { // one chart redraw per frame at most, whatever the event rate
-    state.drawPending = true;
-    requestAnimationFrame(() => { state.drawPending = false; drawCharts(); });
+  const t = event.time_us / 1e6;
+  for (const s of event.servos) {
+    if (s.slot !== state.streamSlot || s.slot !== state.selected) record(t, s);
   }
-  if (event.partial) return;
+  recordOverview(event);
+  scheduleDraw();
   state.servos = event.servos;
-  $("profile").textContent = `${event.servos.length} servo(s), profile ${event.profile}, ${event.mcu}`;
-  $("clock").textContent = `t = ${(event.time_us / 1e6).toFixed(2)} s`;
+  setText($("profile"), `${event.servos.length} servo(s), profile ${event.profile}, ${event.mcu}`);
+  setText($("clock"), `t = ${t.toFixed(2)} s`);
   if (state.selected === null && event.servos.length) select(event.servos[0].slot);
   renderServos();
   const s = event.servos.find((x) => x.slot === state.selected);
-  updateTable(s);
-  if (s) $("world-now").textContent = describeWorld(s.world);
+  if (s) setText($("world-now"), describeWorld(s.world));
+}
+
+function onPoints(batch) {
+  if (batch.slot !== state.selected) return; // points of the servo shown before
+  state.streamSlot = batch.slot;
+  for (const p of batch.points) {
+    record(p.time_us / 1e6, p);
+    if (p.table) state.table = p.table;
+  }
+  updateTable(state.table);
+  scheduleDraw();
+}
+
+function setText(element, text) {
+  if (element.textContent !== text) element.textContent = text;
 }
 
 function connect() {
@@ -407,6 +442,7 @@ function connect() {
     if (state.selected !== null) ws.send(JSON.stringify({ type: "select", slot: state.selected }));
     state.packets = [];
     sendMonitorState();
+    sendShownState();
   };
   ws.onclose = () => {
     $("connection").textContent = "disconnected (is the emulator still running?)";
@@ -415,7 +451,8 @@ function connect() {
   };
   ws.onmessage = (m) => {
     const event = JSON.parse(m.data);
-    if (event.event === "telemetry") onTelemetry(event);
+    if (event.event === "points") onPoints(event);
+    else if (event.event === "telemetry") onTelemetry(event);
     else if (event.event === "packets") addPackets(event.packets);
     else if (event.event === "result") say(event.message, event.ok);
   };
@@ -440,6 +477,20 @@ async function start() {
     sendMonitorState();
     if (monitorVisible && !$("monitor-pause").checked) renderMonitor();
   }).observe($("monitor-scroll"));
+  const sections = new IntersectionObserver((entries) => {
+    for (const e of entries) {
+      if (e.target === $("servos")) {
+        listVisible = e.isIntersecting;
+        if (listVisible) renderServos();
+      } else if (e.isIntersecting !== shownVisible) {
+        shownVisible = e.isIntersecting;
+        sendShownState();
+        updateTable(state.table);
+      }
+    }
+  });
+  sections.observe($("servos"));
+  sections.observe($("selected"));
   connect();
 }
 
