@@ -8,6 +8,7 @@ const HISTORY_S = 15;
 const MONITOR_ROWS = 300;       // rows on the page (the export takes every packet kept)
 const MONITOR_KEPT = 10000;     // packets kept
 const MONITOR_PERIOD_MS = 500;  // the monitor is redrawn at most this often
+const RENDER_PERIOD_MS = 100;   // the page is redrawn at most this often (the charts' points: 20 a second)
 const state = {
   ws: null, items: [], servos: [], selected: null, history: new Map(), charts: [], profile: "ax12",
   packets: [], nextReq: 1, overview: null, overviewSlots: [], overviewHistory: null,
@@ -37,6 +38,7 @@ function record(time_s, s) {
     state.history.set(s.slot, h);
   }
   if (h.t.length && time_s <= h.t[h.t.length - 1]) return; // a point the history has already
+  if (s.slot === state.selected) state.chartsDirty = true;
   h.t.push(time_s);
   h.goal.push(s.goal_position ?? null);
   h.present.push(s.present_position ?? null);
@@ -176,21 +178,44 @@ const screenWatch = new IntersectionObserver((entries) => {
   for (const e of entries) {
     if (e.isIntersecting) onScreen.add(e.target); else onScreen.delete(e.target);
   }
-  state.overviewDirty = true;
+  state.overviewDirty = state.chartsDirty = true;
   drawCharts();
 });
 
-// One chart redraw per frame at most, and none while no chart is on screen.
-function scheduleDraw() {
-  if (state.drawPending || onScreen.size === 0) return;
-  state.drawPending = true;
-  requestAnimationFrame(() => { state.drawPending = false; drawCharts(); });
+// Whatever the events changed is drawn in one frame, RENDER_PERIOD_MS apart at least (a frame
+// costs more than what it draws, in software): the list, the header, the control table and the
+// charts on screen together.
+function scheduleRender() {
+  if (state.renderPending) return;
+  state.renderPending = true;
+  const wait = Math.max(0, (state.lastRender ?? -Infinity) + RENDER_PERIOD_MS - performance.now());
+  setTimeout(() => requestAnimationFrame(render), wait);
+}
+
+function render() {
+  state.renderPending = false;
+  state.lastRender = performance.now();
+  const event = state.lastEvent;
+  if (event && state.eventDirty) {
+    state.eventDirty = false;
+    setText($("profile"), `${event.servos.length} servo(s), profile ${event.profile}, ${event.mcu}`);
+    setText($("clock"), `t = ${(event.time_us / 1e6).toFixed(2)} s`);
+    renderServos();
+    const s = event.servos.find((x) => x.slot === state.selected);
+    if (s) setText($("world-now"), describeWorld(s.world));
+  }
+  if (state.tableDirty) {
+    state.tableDirty = false;
+    updateTable(state.table);
+  }
+  drawCharts();
 }
 
 function drawCharts() {
   if (onScreen.has($("overview"))) drawOverview();
   const h = state.history.get(state.selected);
-  if (!h) return;
+  if (!h || !state.chartsDirty) return;
+  state.chartsDirty = false;
   for (const { def, plot, holder } of state.charts) {
     if (onScreen.has(holder)) plot.setData([h.t, ...def.series.map(([, key]) => h[key])]);
   }
@@ -388,6 +413,7 @@ function exportCsv() {
 function select(slot) {
   state.selected = slot;
   state.table = null; // until the new servo's first points
+  state.chartsDirty = true;
   if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify({ type: "select", slot }));
   const s = state.servos.find((x) => x.slot === slot);
   $("selected-name").textContent = s ? `${slot} (ID ${s.id ?? "?"})` : "–";
@@ -408,14 +434,11 @@ function onTelemetry(event) {
     if (s.slot !== state.streamSlot || s.slot !== state.selected) record(t, s);
   }
   recordOverview(event);
-  scheduleDraw();
   state.servos = event.servos;
-  setText($("profile"), `${event.servos.length} servo(s), profile ${event.profile}, ${event.mcu}`);
-  setText($("clock"), `t = ${t.toFixed(2)} s`);
+  state.lastEvent = event;
+  state.eventDirty = true;
   if (state.selected === null && event.servos.length) select(event.servos[0].slot);
-  renderServos();
-  const s = event.servos.find((x) => x.slot === state.selected);
-  if (s) setText($("world-now"), describeWorld(s.world));
+  scheduleRender();
 }
 
 function onPoints(batch) {
@@ -425,8 +448,8 @@ function onPoints(batch) {
     record(p.time_us / 1e6, p);
     if (p.table) state.table = p.table;
   }
-  updateTable(state.table);
-  scheduleDraw();
+  state.tableDirty = true;
+  if (shownVisible || onScreen.size) scheduleRender(); // else nothing of them is on screen
 }
 
 function setText(element, text) {
