@@ -5,15 +5,17 @@ page (web/dashboard, charts by uPlot from npm, installed by scripts/setup: nothi
 at run time) fed through a WebSocket from the emulator's control socket.
 
 The server holds three connections to the control socket, subscribed only while a page is
-open: every servo with its control table 5 times a second and the bus monitor's packets; the
-servos the pages show, 20 times a second; and one for the pages' requests. A page gets every
-servo 5 times a second (its list, table and overview) and the servo it shows 20 times a second
-(its charts). A
-page's edit of a control-table item becomes a Protocol 1.0 WRITE that the emulator puts on the
-bus (so it obeys every rule a client's write obeys; the servo's status packet is the answer);
-a world change goes to the emulator as it is. The bus monitor's packets come in batches (one
-message per batch, every 50 ms at most), so a busy bus costs the page and this server little. Bad input gets a message and changes nothing;
-a page that stops reading is dropped, and nothing a page does stops the bus.
+open: every servo 5 times a second and the bus monitor's packets; the servos the pages show,
+20 times a second with their control tables 5 times a second; and one for the pages' requests.
+A page gets every servo 5 times a second (its list and overview) and the points of the servo it
+shows in batches, 10 a second while that servo's section is on screen and once a second
+otherwise (its charts and control table). A page's edit of a control-table item becomes a
+Protocol 1.0 WRITE that the emulator puts on the bus (so it obeys every rule a client's write
+obeys; the servo's status packet is the answer); a world change goes to the emulator as it is.
+The bus monitor's packets come in batches (one message per batch, every 50 ms at most), sent
+to a page only while its monitor is on screen, so a busy bus costs the page and this server
+little. Bad input gets a message and changes nothing; a page that stops reading is dropped, and
+nothing a page does stops the bus.
 
 Started by ax12-emu with --control PATH --listen HOST:PORT; prints one line
 `listening http://HOST:PORT/` on stdout once it serves, then logs only to stderr. It exits
@@ -49,9 +51,10 @@ def log(message):
 
 
 class Emulator:
-    """The control socket: requests on one connection (one at a time), events on another. Events
-    are subscribed to only while a page is open, and relayed as the text they came in (parsed
-    only when a page's request needs the latest telemetry): the server costs the bus little."""
+    """The control socket: requests on one connection (one at a time), events on two others.
+    Events are subscribed to only while a page is open; the whole ones are relayed as the text
+    they came in (parsed only when a page's request needs the latest telemetry), the shown
+    servos' ones gathered into each page's batches: the server costs the bus little."""
 
     def __init__(self, path):
         self.path = path

@@ -116,7 +116,7 @@ function buildCharts() {
   for (const def of CHARTS) {
     const holder = document.createElement("div");
     $("charts").append(holder);
-    // No cursor and a legend without live values: redrawn 20 times a second, a chart costs
+    // No cursor and a legend without live values: redrawn 10 times a second, a chart costs
     // its canvas only.
     const opts = {
       title: def.title, width: 400, height: 170,
