@@ -7,9 +7,9 @@ at run time) fed through a WebSocket from the emulator's control socket.
 The server holds three connections to the control socket, subscribed only while a page is
 open: every servo 5 times a second and the bus monitor's packets; the servos the pages show,
 20 times a second with their control tables 5 times a second; and one for the pages' requests.
-A page gets every servo 5 times a second (its list and overview) and the points of the servo it
-shows in batches, 10 a second while that servo's section is on screen and once a second
-otherwise (its charts and control table). A page's edit of a control-table item becomes a
+A page gets every servo 5 times a second (its list and overview) and, in the same messages, the
+points of the servo it shows (its charts and control table): in each of them while that
+servo's section is on screen, once a second otherwise. A page's edit of a control-table item becomes a
 Protocol 1.0 WRITE that the emulator puts on the bus (so it obeys every rule a client's write
 obeys; the servo's status packet is the answer); a world change goes to the emulator as it is.
 The bus monitor's packets come in batches (one message per batch, every 50 ms at most), sent
@@ -38,8 +38,7 @@ WEB = os.path.join(REPO, "web", "dashboard")
 UPLOT = os.path.join(WEB, "node_modules", "uplot", "dist")
 TELEMETRY_HZ = 20         # the selected servo's charts
 TABLE_HZ = 5              # every servo's row; the shown servo's control table
-POINTS_PERIOD_S = 0.1     # a page's chart points, batched: while its charts are on screen
-POINTS_PERIOD_OFF_S = 1.0  # and while they are not
+POINTS_PERIOD_OFF_S = 1.0  # a page's chart points while its charts are off screen (else every whole event)
 POINTS_KEPT = 100         # points of a batch at most (5 s)
 PACKET_BATCHES_KEPT = 200  # for a page opened later: 10 s of batches (50 ms apart at most)
 PAGE_QUEUE = 2000         # lines waiting for a page before it is dropped
@@ -109,10 +108,8 @@ class Emulator:
                     return reply
 
     async def pump_charts(self, charts_reader):
-        """The shown servos' telemetry: each page gets its own servo's points, in batches
-        (POINTS_PERIOD_S apart while its servo's section is on screen, POINTS_PERIOD_OFF_S
-        otherwise; at once for a servo just selected): 20 points a second drawn 10 times a
-        second, and a page at its list is woken once a second for them."""
+        """The shown servos' telemetry: each page's own servo's points are kept for its next
+        whole event (pump_events), but sent at once for a servo just selected."""
         while True:
             line = await charts_reader.readline()
             if not line:
@@ -133,14 +130,24 @@ class Emulator:
                 servo["time_us"] = event["time_us"]
                 batch["points"].append(servo)
                 del batch["points"][:-POINTS_KEPT]
-                period = POINTS_PERIOD_S if self.shown_on_screen.get(ws) else POINTS_PERIOD_OFF_S
-                if now - batch["sent"] >= period:
-                    self.relay(ws, json.dumps({"event": "points", "slot": slot, "points": batch["points"]},
-                                              separators=(",", ":")))
-                    batch.update(points=[], sent=now)
+                if not batch["sent"]:
+                    self.relay(ws, '{"event":"points",%s}' % self.take_points(ws, now)[1:-1])
+
+    def take_points(self, ws, now):
+        """A page's batch of points as JSON text, or None: every whole event while its servo's
+        section is on screen, POINTS_PERIOD_OFF_S apart otherwise."""
+        batch = self.points.get(ws)
+        if not batch or not batch["points"]:
+            return None
+        if not self.shown_on_screen.get(ws) and batch["sent"] and now - batch["sent"] < POINTS_PERIOD_OFF_S:
+            return None
+        text = json.dumps({"slot": batch["slot"], "points": batch["points"]}, separators=(",", ":"))
+        batch.update(points=[], sent=now)
+        return text
 
     async def pump_events(self, events_reader):
-        """Relays the whole telemetry and the packets to every page until the emulator goes
+        """Relays the whole telemetry (with the page's own points in it: one message, one
+        wake-up of the page, one frame) and the packets to every page until the emulator goes
         away."""
         while True:
             line = await events_reader.readline()
@@ -149,8 +156,10 @@ class Emulator:
             text = line.decode().strip()
             if text.startswith('{"event":"telemetry"'):
                 self.latest_line = text
+                now = time.monotonic()
                 for ws in list(self.pages):
-                    self.relay(ws, text)
+                    points = self.take_points(ws, now)
+                    self.relay(ws, text if points is None else text[:-1] + ',"points":' + points + "}")
             elif text.startswith('{"event":"packets"'):
                 self.batches.append(text)
                 for ws in list(self.pages):

@@ -8,7 +8,7 @@ const HISTORY_S = 15;
 const MONITOR_ROWS = 300;       // rows on the page (the export takes every packet kept)
 const MONITOR_KEPT = 10000;     // packets kept
 const MONITOR_PERIOD_MS = 500;  // the monitor is redrawn at most this often
-const RENDER_PERIOD_MS = 100;   // the page is redrawn at most this often (the charts' points: 20 a second)
+const RENDER_PERIOD_MS = 100;   // the page is redrawn at most this often (whole events: every 200 ms)
 const state = {
   ws: null, items: [], servos: [], selected: null, history: new Map(), charts: [], profile: "ax12",
   packets: [], nextReq: 1, overview: null, overviewSlots: [], overviewHistory: null,
@@ -116,7 +116,7 @@ function buildCharts() {
   for (const def of CHARTS) {
     const holder = document.createElement("div");
     $("charts").append(holder);
-    // No cursor and a legend without live values: redrawn 10 times a second, a chart costs
+    // No cursor and a legend without live values: redrawn 5 times a second, a chart costs
     // its canvas only.
     const opts = {
       title: def.title, width: 400, height: 170,
@@ -425,10 +425,12 @@ function select(slot) {
 
 // Events come whole (every servo, without control tables) 5 times a second: the list, the
 // overview and the charts of the servos not shown take them. The servo shown comes 20 points a
-// second in batches ("points": 10 a second while its section is on screen, once a second
-// otherwise), with its control table 5 times a second: its charts and its table take them.
+// second with its control table 5 times a second, in batches carried by the whole events (each
+// one while its section is on screen, once a second otherwise; on their own for a servo just
+// selected): its charts and its table take them. One frame per whole event.
 function onTelemetry(event) {
   state.profile = event.profile;
+  if (event.points) takePoints(event.points);
   const t = event.time_us / 1e6;
   for (const s of event.servos) {
     if (s.slot !== state.streamSlot || s.slot !== state.selected) record(t, s);
@@ -441,7 +443,7 @@ function onTelemetry(event) {
   scheduleRender();
 }
 
-function onPoints(batch) {
+function takePoints(batch) {
   if (batch.slot !== state.selected) return; // points of the servo shown before
   state.streamSlot = batch.slot;
   for (const p of batch.points) {
@@ -449,6 +451,10 @@ function onPoints(batch) {
     if (p.table) state.table = p.table;
   }
   state.tableDirty = true;
+}
+
+function onPoints(batch) {
+  takePoints(batch);
   if (shownVisible || onScreen.size) scheduleRender(); // else nothing of them is on screen
 }
 
