@@ -5,15 +5,17 @@ page (web/dashboard, charts by uPlot from npm, installed by scripts/setup: nothi
 at run time) fed through a WebSocket from the emulator's control socket.
 
 The server holds three connections to the control socket, subscribed only while a page is
-open: every servo with its control table 5 times a second and the bus monitor's packets; the
-servos the pages show, 20 times a second; and one for the pages' requests. A page gets every
-servo 5 times a second (its list, table and overview) and the servo it shows 20 times a second
-(its charts). A
-page's edit of a control-table item becomes a Protocol 1.0 WRITE that the emulator puts on the
-bus (so it obeys every rule a client's write obeys; the servo's status packet is the answer);
-a world change goes to the emulator as it is. The bus monitor's packets come in batches (one
-message per batch, every 50 ms at most), so a busy bus costs the page and this server little. Bad input gets a message and changes nothing;
-a page that stops reading is dropped, and nothing a page does stops the bus.
+open: every servo 5 times a second and the bus monitor's packets; the servos the pages show,
+20 times a second with their control tables 5 times a second; and one for the pages' requests.
+A page gets every servo 5 times a second (its list and overview) and, in the same messages, the
+points of the servo it shows (its charts and control table): in each of them while that
+servo's section is on screen, once a second otherwise. A page's edit of a control-table item becomes a
+Protocol 1.0 WRITE that the emulator puts on the bus (so it obeys every rule a client's write
+obeys; the servo's status packet is the answer); a world change goes to the emulator as it is.
+The bus monitor's packets come in batches (one message per batch, every 50 ms at most), sent
+to a page only while its monitor is on screen, so a busy bus costs the page and this server
+little. Bad input gets a message and changes nothing; a page that stops reading is dropped, and
+nothing a page does stops the bus.
 
 Started by ax12-emu with --control PATH --listen HOST:PORT; prints one line
 `listening http://HOST:PORT/` on stdout once it serves, then logs only to stderr. It exits
@@ -35,7 +37,9 @@ from aiohttp import WSMsgType, web  # noqa: E402
 WEB = os.path.join(REPO, "web", "dashboard")
 UPLOT = os.path.join(WEB, "node_modules", "uplot", "dist")
 TELEMETRY_HZ = 20         # the selected servo's charts
-TABLE_HZ = 5              # every servo's row and control table
+TABLE_HZ = 5              # every servo's row; the shown servo's control table
+POINTS_PERIOD_OFF_S = 1.0  # a page's chart points while its charts are off screen (else every whole event)
+POINTS_KEPT = 100         # points of a batch at most (5 s)
 PACKET_BATCHES_KEPT = 200  # for a page opened later: 10 s of batches (50 ms apart at most)
 PAGE_QUEUE = 2000         # lines waiting for a page before it is dropped
 SEND_TIMEOUT_S = 5.0
@@ -46,9 +50,10 @@ def log(message):
 
 
 class Emulator:
-    """The control socket: requests on one connection (one at a time), events on another. Events
-    are subscribed to only while a page is open, and relayed as the text they came in (parsed
-    only when a page's request needs the latest telemetry): the server costs the bus little."""
+    """The control socket: requests on one connection (one at a time), events on two others.
+    Events are subscribed to only while a page is open; the whole ones are relayed as the text
+    they came in (parsed only when a page's request needs the latest telemetry), the shown
+    servos' ones gathered into each page's batches: the server costs the bus little."""
 
     def __init__(self, path):
         self.path = path
@@ -60,6 +65,8 @@ class Emulator:
         self.pages = {}               # open WebSocket -> its queue of lines to send
         self.selected = {}            # open WebSocket -> the slot it shows
         self.monitoring = {}          # open WebSocket -> whether its bus monitor is on screen
+        self.shown_on_screen = {}     # open WebSocket -> whether its servo's charts are on screen
+        self.points = {}              # open WebSocket -> its servo's points not sent yet
 
     async def connect(self):
         self.reader, self.writer = await asyncio.open_unix_connection(self.path, limit=1 << 24)
@@ -68,15 +75,15 @@ class Emulator:
         return events_reader, charts_reader
 
     async def subscribe(self):
-        """While any page is open: every servo with its control table TABLE_HZ times a second
-        and the packets on one connection; the servos the pages show, without tables,
-        TELEMETRY_HZ times a second on another. Nothing while no page is open."""
+        """While any page is open: every servo TABLE_HZ times a second and the packets on one
+        connection; the servos the pages show, TELEMETRY_HZ times a second with their control
+        tables TABLE_HZ times a second, on another. Nothing while no page is open."""
         on = bool(self.pages)
         self.events_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": TABLE_HZ if on else 0,
-                                             "table": True, "packets": on}).encode() + b"\n")
+                                             "packets": on}).encode() + b"\n")
         shown = sorted({slot for slot in self.selected.values() if isinstance(slot, int)})
         self.charts_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": TELEMETRY_HZ if on and shown else 0,
-                                             "servos": shown}).encode() + b"\n")
+                                             "table_hz": TABLE_HZ, "servos": shown}).encode() + b"\n")
         await self.events_writer.drain()
         await self.charts_writer.drain()
 
@@ -101,7 +108,8 @@ class Emulator:
                     return reply
 
     async def pump_charts(self, charts_reader):
-        """The shown servos' telemetry: each page gets its own servo's ("partial")."""
+        """The shown servos' telemetry: each page's own servo's points are kept for its next
+        whole event (pump_events), but sent at once for a servo just selected."""
         while True:
             line = await charts_reader.readline()
             if not line:
@@ -110,13 +118,36 @@ class Emulator:
                 continue
             event = json.loads(line)
             by_slot = {s["slot"]: s for s in event["servos"]}
+            now = time.monotonic()
             for ws in list(self.pages):
-                servo = by_slot.get(self.selected.get(ws))
-                if servo is not None:
-                    self.relay(ws, json.dumps(dict(event, servos=[servo], partial=True), separators=(",", ":")))
+                slot = self.selected.get(ws)
+                servo = by_slot.get(slot)
+                if servo is None:
+                    continue
+                batch = self.points.setdefault(ws, {"slot": slot, "points": [], "sent": 0.0})
+                if batch["slot"] != slot:
+                    batch.update(slot=slot, points=[], sent=0.0)
+                servo["time_us"] = event["time_us"]
+                batch["points"].append(servo)
+                del batch["points"][:-POINTS_KEPT]
+                if not batch["sent"]:
+                    self.relay(ws, '{"event":"points",%s}' % self.take_points(ws, now)[1:-1])
+
+    def take_points(self, ws, now):
+        """A page's batch of points as JSON text, or None: every whole event while its servo's
+        section is on screen, POINTS_PERIOD_OFF_S apart otherwise."""
+        batch = self.points.get(ws)
+        if not batch or not batch["points"]:
+            return None
+        if not self.shown_on_screen.get(ws) and batch["sent"] and now - batch["sent"] < POINTS_PERIOD_OFF_S:
+            return None
+        text = json.dumps({"slot": batch["slot"], "points": batch["points"]}, separators=(",", ":"))
+        batch.update(points=[], sent=now)
+        return text
 
     async def pump_events(self, events_reader):
-        """Relays the whole telemetry and the packets to every page until the emulator goes
+        """Relays the whole telemetry (with the page's own points in it: one message, one
+        wake-up of the page, one frame) and the packets to every page until the emulator goes
         away."""
         while True:
             line = await events_reader.readline()
@@ -125,8 +156,10 @@ class Emulator:
             text = line.decode().strip()
             if text.startswith('{"event":"telemetry"'):
                 self.latest_line = text
+                now = time.monotonic()
                 for ws in list(self.pages):
-                    self.relay(ws, text)
+                    points = self.take_points(ws, now)
+                    self.relay(ws, text if points is None else text[:-1] + ',"points":' + points + "}")
             elif text.startswith('{"event":"packets"'):
                 self.batches.append(text)
                 for ws in list(self.pages):
@@ -227,6 +260,9 @@ async def answer(emu, ws, msg):
                 emu.relay(ws, batch)
         emu.monitoring[ws] = on
         return None
+    if kind == "shown":  # the page's servo section (charts, control table) came on screen or left it
+        emu.shown_on_screen[ws] = bool(msg.get("on"))
+        return None
     try:
         if kind == "write":
             return await page_write(emu, msg)
@@ -269,6 +305,8 @@ async def websocket(request):
         emu.pages.pop(ws, None)
         emu.selected.pop(ws, None)
         emu.monitoring.pop(ws, None)
+        emu.shown_on_screen.pop(ws, None)
+        emu.points.pop(ws, None)
         sender.cancel()
         if not emu.pages:
             await emu.subscribe()

@@ -8,9 +8,12 @@ const HISTORY_S = 15;
 const MONITOR_ROWS = 300;       // rows on the page (the export takes every packet kept)
 const MONITOR_KEPT = 10000;     // packets kept
 const MONITOR_PERIOD_MS = 500;  // the monitor is redrawn at most this often
+const RENDER_PERIOD_MS = 100;   // the page is redrawn at most this often (whole events: every 200 ms)
 const state = {
   ws: null, items: [], servos: [], selected: null, history: new Map(), charts: [], profile: "ax12",
   packets: [], nextReq: 1, overview: null, overviewSlots: [], overviewHistory: null,
+  streamSlot: null, // the servo whose points come in batches (20 a second): the selected one
+  table: null,      // the selected servo's control table, as its last batch of points had it
 };
 
 const $ = (id) => document.getElementById(id);
@@ -34,6 +37,8 @@ function record(time_s, s) {
       supply: [] };
     state.history.set(s.slot, h);
   }
+  if (h.t.length && time_s <= h.t[h.t.length - 1]) return; // a point the history has already
+  if (s.slot === state.selected) state.chartsDirty = true;
   h.t.push(time_s);
   h.goal.push(s.goal_position ?? null);
   h.present.push(s.present_position ?? null);
@@ -77,17 +82,20 @@ function servoRow(slot) {
 }
 
 function renderServos() {
+  if (!listVisible) return; // drawn again when it comes on screen
   const fmt = (v, d) => (v === undefined || v === null ? "–" : Number(v).toFixed(d));
   for (const s of state.servos) {
     const tr = servoRow(s.slot);
-    tr.className = s.slot === state.selected ? "selected" : "";
+    const rowClass = s.slot === state.selected ? "selected" : "";
+    if (tr.className !== rowClass) tr.className = rowClass;
     const values = [s.slot, s.id ?? "–", s.goal_position ?? "–", s.present_position ?? "–",
       s.present_speed === undefined ? "–" : signed10(s.present_speed),
       s.present_load === undefined ? "–" : signed10(s.present_load), fmt(s.duty, 2), fmt(s.motor_current_a, 2),
       fmt(s.winding_c, 1), fmt(s.case_c, 1), fmt(s.supply_v, 2), s.led ? "on" : "off", s.torque_enable ? "on" : "off",
       s.moving ?? "–", alarmsText(s)];
     values.forEach((v, i) => { if (tr.cells[i].textContent !== String(v)) tr.cells[i].textContent = v; });
-    tr.cells[14].className = s.conditions ? "alarm text" : "text";
+    const alarmClass = s.conditions ? "alarm text" : "text";
+    if (tr.cells[14].className !== alarmClass) tr.cells[14].className = alarmClass;
   }
 }
 
@@ -108,7 +116,7 @@ function buildCharts() {
   for (const def of CHARTS) {
     const holder = document.createElement("div");
     $("charts").append(holder);
-    // No cursor and a legend without live values: redrawn 20 times a second, a chart costs
+    // No cursor and a legend without live values: redrawn 5 times a second, a chart costs
     // its canvas only.
     const opts = {
       title: def.title, width: 400, height: 170,
@@ -170,14 +178,44 @@ const screenWatch = new IntersectionObserver((entries) => {
   for (const e of entries) {
     if (e.isIntersecting) onScreen.add(e.target); else onScreen.delete(e.target);
   }
-  state.overviewDirty = true;
+  state.overviewDirty = state.chartsDirty = true;
   drawCharts();
 });
+
+// Whatever the events changed is drawn in one frame, RENDER_PERIOD_MS apart at least (a frame
+// costs more than what it draws, in software): the list, the header, the control table and the
+// charts on screen together.
+function scheduleRender() {
+  if (state.renderPending) return;
+  state.renderPending = true;
+  const wait = Math.max(0, (state.lastRender ?? -Infinity) + RENDER_PERIOD_MS - performance.now());
+  setTimeout(() => requestAnimationFrame(render), wait);
+}
+
+function render() {
+  state.renderPending = false;
+  state.lastRender = performance.now();
+  const event = state.lastEvent;
+  if (event && state.eventDirty) {
+    state.eventDirty = false;
+    setText($("profile"), `${event.servos.length} servo(s), profile ${event.profile}, ${event.mcu}`);
+    setText($("clock"), `t = ${(event.time_us / 1e6).toFixed(2)} s`);
+    renderServos();
+    const s = event.servos.find((x) => x.slot === state.selected);
+    if (s) setText($("world-now"), describeWorld(s.world));
+  }
+  if (state.tableDirty) {
+    state.tableDirty = false;
+    updateTable(state.table);
+  }
+  drawCharts();
+}
 
 function drawCharts() {
   if (onScreen.has($("overview"))) drawOverview();
   const h = state.history.get(state.selected);
-  if (!h) return;
+  if (!h || !state.chartsDirty) return;
+  state.chartsDirty = false;
   for (const { def, plot, holder } of state.charts) {
     if (onScreen.has(holder)) plot.setData([h.t, ...def.series.map(([, key]) => h[key])]);
   }
@@ -220,11 +258,11 @@ function buildTable() {
   }
 }
 
-function updateTable(s) {
-  if (!s || !s.table) return;
+function updateTable(table) {
+  if (!table || !shownVisible) return;
   for (const item of state.items) {
     const td = $("value-" + item.addr);
-    const text = String(itemValue(s.table, item));
+    const text = String(itemValue(table, item));
     if (td && td.textContent !== text) td.textContent = text;
   }
 }
@@ -319,6 +357,13 @@ function packetRowHtml(p) {
 // The monitor is drawn only while it is on screen (the packets are kept all the same).
 let monitorTimer = null;
 let monitorVisible = false;
+// The servo list and the selected servo's section (charts, control table) are updated only
+// while on screen; the server sends the section's points more often while it is.
+let listVisible = false;
+let shownVisible = false;
+function sendShownState() {
+  if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify({ type: "shown", on: shownVisible }));
+}
 function sendMonitorState() {
   if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify({ type: "monitor", on: monitorVisible }));
 }
@@ -367,35 +412,54 @@ function exportCsv() {
 
 function select(slot) {
   state.selected = slot;
+  state.table = null; // until the new servo's first points
+  state.chartsDirty = true;
   if (state.ws && state.ws.readyState === WebSocket.OPEN) state.ws.send(JSON.stringify({ type: "select", slot }));
   const s = state.servos.find((x) => x.slot === slot);
   $("selected-name").textContent = s ? `${slot} (ID ${s.id ?? "?"})` : "–";
   buildTable();
-  if (s) { updateTable(s); fillWorld(s); }
+  if (s) fillWorld(s);
   renderServos();
   drawCharts();
 }
 
-// Events come whole (every servo, with control tables) 5 times a second, and with only the
-// servo shown ("partial") in between, 20 a second in all: its charts take each; the list, the
-// table and the overview of every servo take the whole ones.
+// Events come whole (every servo, without control tables) 5 times a second: the list, the
+// overview and the charts of the servos not shown take them. The servo shown comes 20 points a
+// second with its control table 5 times a second, in batches carried by the whole events (each
+// one while its section is on screen, once a second otherwise; on their own for a servo just
+// selected): its charts and its table take them. One frame per whole event.
 function onTelemetry(event) {
   state.profile = event.profile;
-  for (const s of event.servos) record(event.time_us / 1e6, s);
-  if (!event.partial) recordOverview(event);
-  if (!state.drawPending) { // one chart redraw per frame at most, whatever the event rate
-    state.drawPending = true;
-    requestAnimationFrame(() => { state.drawPending = false; drawCharts(); });
+  if (event.points) takePoints(event.points);
+  const t = event.time_us / 1e6;
+  for (const s of event.servos) {
+    if (s.slot !== state.streamSlot || s.slot !== state.selected) record(t, s);
   }
-  if (event.partial) return;
+  recordOverview(event);
   state.servos = event.servos;
-  $("profile").textContent = `${event.servos.length} servo(s), profile ${event.profile}, ${event.mcu}`;
-  $("clock").textContent = `t = ${(event.time_us / 1e6).toFixed(2)} s`;
+  state.lastEvent = event;
+  state.eventDirty = true;
   if (state.selected === null && event.servos.length) select(event.servos[0].slot);
-  renderServos();
-  const s = event.servos.find((x) => x.slot === state.selected);
-  updateTable(s);
-  if (s) $("world-now").textContent = describeWorld(s.world);
+  scheduleRender();
+}
+
+function takePoints(batch) {
+  if (batch.slot !== state.selected) return; // points of the servo shown before
+  state.streamSlot = batch.slot;
+  for (const p of batch.points) {
+    record(p.time_us / 1e6, p);
+    if (p.table) state.table = p.table;
+  }
+  state.tableDirty = true;
+}
+
+function onPoints(batch) {
+  takePoints(batch);
+  if (shownVisible || onScreen.size) scheduleRender(); // else nothing of them is on screen
+}
+
+function setText(element, text) {
+  if (element.textContent !== text) element.textContent = text;
 }
 
 function connect() {
@@ -407,6 +471,7 @@ function connect() {
     if (state.selected !== null) ws.send(JSON.stringify({ type: "select", slot: state.selected }));
     state.packets = [];
     sendMonitorState();
+    sendShownState();
   };
   ws.onclose = () => {
     $("connection").textContent = "disconnected (is the emulator still running?)";
@@ -415,7 +480,8 @@ function connect() {
   };
   ws.onmessage = (m) => {
     const event = JSON.parse(m.data);
-    if (event.event === "telemetry") onTelemetry(event);
+    if (event.event === "points") onPoints(event);
+    else if (event.event === "telemetry") onTelemetry(event);
     else if (event.event === "packets") addPackets(event.packets);
     else if (event.event === "result") say(event.message, event.ok);
   };
@@ -440,6 +506,20 @@ async function start() {
     sendMonitorState();
     if (monitorVisible && !$("monitor-pause").checked) renderMonitor();
   }).observe($("monitor-scroll"));
+  const sections = new IntersectionObserver((entries) => {
+    for (const e of entries) {
+      if (e.target === $("servos")) {
+        listVisible = e.isIntersecting;
+        if (listVisible) renderServos();
+      } else if (e.isIntersecting !== shownVisible) {
+        shownVisible = e.isIntersecting;
+        sendShownState();
+        updateTable(state.table);
+      }
+    }
+  });
+  sections.observe($("servos"));
+  sections.observe($("selected"));
   connect();
 }
 
