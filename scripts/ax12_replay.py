@@ -9,7 +9,8 @@ bytes too) is sent again, no earlier than its recorded offset from the first cli
 the device takes longer than the recording the schedule slips. The rows of the other senders
 (the servos) between one client row and the next are the answers expected to it. After each
 packet the answers are read until the recorded time of the next client packet, and at least
-until as many bytes as expected have come (or --timeout has passed). The bytes are cut into
+until as many bytes as expected have come (or --timeout has passed); a packet recorded without
+an answer is listened to for at least UNANSWERED_LISTEN_S. The bytes are cut into
 packets as the bus monitor cuts them, lined up with the expected ones (difflib, by header, ID,
 LENGTH and error byte: one answer too many or too few does not shift the others) and compared,
 expected against got:
@@ -44,6 +45,11 @@ KINDS = ("instruction", "status", "garbage", "protocol2")
 CLIENT = "client"
 # After the last expected answer of the last packet: how long an extra answer is waited for.
 TAIL_S = 0.05
+# A packet recorded without an answer is listened to at least this long before the next is
+# sent, so that an answer it should not get (the difference to find) is not taken for one of the
+# next packet's: an AX-12 answers within 508 us of Return Delay Time plus the wire, and a USB
+# adapter's latency timer and the host's scheduling add a few milliseconds.
+UNANSWERED_LISTEN_S = 0.005
 
 
 class Problem(Exception):
@@ -338,7 +344,10 @@ def replay(args, T):
             if need:
                 port.read_until(wire_end + args.timeout + need * byte_s, got, lambda: len(got) >= need)
             if k + 1 < len(exs):
-                port.read_until(t0 + (exs[k + 1].request.time_us - t0_rec) / 1e6, got)
+                next_at = t0 + (exs[k + 1].request.time_us - t0_rec) / 1e6
+                if not need:
+                    next_at = max(next_at, wire_end + UNANSWERED_LISTEN_S)
+                port.read_until(next_at, got)
             else:
                 port.read_until(time.monotonic() + TAIL_S, got)
             lines = compare(ex, split(bytes(got)), args.strict, T, varying)
