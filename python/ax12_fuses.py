@@ -26,7 +26,7 @@ class Mcu:
 # The ATmega328P: the bootloader in its 2 KB boot section (0x7800-0x7FFF); below it the
 # application area, whose last page (0x7780-0x77FF) holds the application record
 # (docs/bootloader.md "Flash layout"), so the image itself ends below 0x7780.
-# The ATmega88's application (8014 B) does not fit beside any boot section (the smallest,
+# The ATmega88's application (8012 B) does not fit beside any boot section (the smallest,
 # 256 B, leaves 7936 B): until it is at most 6144 B (the flash goal in README.md) it has no
 # bootloader and may use the whole flash.
 # The parts whose builds carry the bootloader (firmware/boot): their board gets the merged HEX
