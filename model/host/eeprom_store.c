@@ -71,20 +71,10 @@ bool eeprom_store_image_fields(const uint8_t *eeprom, size_t size, uint8_t *id, 
 
 int eeprom_store_load(const char *path, uint8_t *eeprom, size_t size, char *err, size_t err_len) {
   memset(eeprom, 0xFF, size);
-  /* O_NONBLOCK: opening a FIFO must not wait for a writer; it is refused below. */
-  const int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  off_t file_size;
+  const int fd = state_file_open(path, &file_size, err, err_len);
   if (fd < 0) {
-    if (errno == ENOENT) {
-      return 0;
-    }
-    snprintf(err, err_len, "cannot read %s: %s", path, strerror(errno));
-    return -1;
-  }
-  struct stat st;
-  if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-    snprintf(err, err_len, "%s is not a regular file", path);
-    close(fd);
-    return -1;
+    return fd == STATE_FILE_ABSENT ? 0 : -1;
   }
   size_t got = 0;
   while (got < size) {

@@ -9,9 +9,6 @@
 
 /* e_flags of an AVR ELF: the architecture number in its low 7 bits (binutils' EF_AVR_MACH). */
 #define AVR_MACH_MASK 0x7Fu
-/* Addresses of an AVR ELF: flash below 0x800000, SRAM from there, EEPROM from 0x810000. */
-#define AVR_DATA_SPACE 0x800000u
-#define AVR_EEPROM_SPACE 0x810000u
 
 typedef struct {
   const char *mcu;
@@ -47,22 +44,39 @@ static const char *mcu_of_arch(unsigned arch) {
   return NULL;
 }
 
+FILE *elf_open_avr(const char *path, Elf32_Ehdr *h, char *err, size_t err_len) {
+  FILE *f = fopen(path, "rb");
+  if (!f) {
+    snprintf(err, err_len, "cannot read %s: %s", path, strerror(errno));
+    return NULL;
+  }
+  const bool ok = fread(h, sizeof *h, 1, f) == 1 && memcmp(h->e_ident, ELFMAG, SELFMAG) == 0;
+  if (!ok || h->e_ident[EI_CLASS] != ELFCLASS32 || h->e_ident[EI_DATA] != ELFDATA2LSB || h->e_machine != EM_AVR) {
+    snprintf(err, err_len, "%s is not an AVR firmware ELF", path);
+    fclose(f);
+    return NULL;
+  }
+  return f;
+}
+
+bool elf_program_header(FILE *f, const Elf32_Ehdr *h, unsigned i, Elf32_Phdr *ph, const char *path, char *err,
+                        size_t err_len) {
+  if (fseek(f, (long)(h->e_phoff + (uint64_t)i * h->e_phentsize), SEEK_SET) != 0 || fread(ph, sizeof *ph, 1, f) != 1) {
+    snprintf(err, err_len, "%s: truncated ELF program header", path);
+    return false;
+  }
+  return true;
+}
+
 bool elf_check_avr(const char *path, const char *mcu, char *err, size_t err_len) {
   const mcu_facts_t *facts = facts_of(mcu);
   if (!facts) {
     snprintf(err, err_len, "unknown MCU '%s'", mcu);
     return false;
   }
-  FILE *f = fopen(path, "rb");
-  if (!f) {
-    snprintf(err, err_len, "cannot read %s: %s", path, strerror(errno));
-    return false;
-  }
   Elf32_Ehdr h;
-  bool ok = fread(&h, sizeof h, 1, f) == 1 && memcmp(h.e_ident, ELFMAG, SELFMAG) == 0;
-  if (!ok || h.e_ident[EI_CLASS] != ELFCLASS32 || h.e_ident[EI_DATA] != ELFDATA2LSB || h.e_machine != EM_AVR) {
-    snprintf(err, err_len, "%s is not an AVR firmware ELF", path);
-    fclose(f);
+  FILE *f = elf_open_avr(path, &h, err, err_len);
+  if (!f) {
     return false;
   }
   const unsigned arch = h.e_flags & AVR_MACH_MASK;
@@ -80,13 +94,12 @@ bool elf_check_avr(const char *path, const char *mcu, char *err, size_t err_len)
   uint64_t flash = 0;
   for (unsigned i = 0; i < h.e_phnum; i++) {
     Elf32_Phdr ph;
-    if (fseek(f, (long)(h.e_phoff + (uint64_t)i * h.e_phentsize), SEEK_SET) != 0 || fread(&ph, sizeof ph, 1, f) != 1) {
-      snprintf(err, err_len, "%s: truncated ELF program header", path);
+    if (!elf_program_header(f, &h, i, &ph, path, err, err_len)) {
       fclose(f);
       return false;
     }
     /* Code, and the initial values of data, which the C runtime copies from flash. */
-    if (ph.p_type == PT_LOAD && ph.p_vaddr < AVR_EEPROM_SPACE) {
+    if (ph.p_type == PT_LOAD && ph.p_vaddr < ELF_AVR_EEPROM_SPACE) {
       flash += ph.p_filesz;
     }
   }

@@ -6,9 +6,23 @@
 #ifndef SIM_ELF_CHECK_H
 #define SIM_ELF_CHECK_H
 
+#include <elf.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
+
+/* Addresses of an AVR ELF: flash below 0x800000, SRAM from there (.data, loaded from flash at
+ * its physical address), EEPROM from 0x810000. */
+#define ELF_AVR_EEPROM_SPACE 0x810000u
+
+/* Opens path and reads its ELF header into *h: a 32-bit little-endian ELF for the AVR. NULL with
+ * a one-line reason in err otherwise. */
+FILE *elf_open_avr(const char *path, Elf32_Ehdr *h, char *err, size_t err_len);
+
+/* Reads program header i of the ELF f (header h). False with err set when the file is cut short. */
+bool elf_program_header(FILE *f, const Elf32_Ehdr *h, unsigned i, Elf32_Phdr *ph, const char *path, char *err,
+                        size_t err_len);
 
 /* True when path is a 32-bit little-endian ELF for the AVR, of the architecture of mcu
  * ("atmega88": avr4, "atmega328p": avr5), whose loaded bytes fit that MCU's flash. False with

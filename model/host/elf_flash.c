@@ -1,37 +1,25 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 #include "elf_flash.h"
 
-#include <elf.h>
-#include <errno.h>
 #include <stdio.h>
-#include <string.h>
 
-/* Virtual addresses of an AVR ELF: flash below 0x800000, SRAM from there (.data, loaded from
- * flash at its physical address), EEPROM from 0x810000. */
-#define AVR_EEPROM_SPACE 0x810000u
+#include "elf_check.h"
 
 bool elf_flash_read(const char *path, uint8_t *flash, uint32_t flash_bytes, uint32_t *first, uint32_t *end, char *err,
                     size_t err_len) {
-  FILE *f = fopen(path, "rb");
-  if (!f) {
-    snprintf(err, err_len, "cannot read %s: %s", path, strerror(errno));
-    return false;
-  }
   Elf32_Ehdr h;
-  if (fread(&h, sizeof h, 1, f) != 1 || memcmp(h.e_ident, ELFMAG, SELFMAG) != 0 || h.e_machine != EM_AVR) {
-    snprintf(err, err_len, "%s is not an AVR firmware ELF", path);
-    fclose(f);
+  FILE *f = elf_open_avr(path, &h, err, err_len);
+  if (!f) {
     return false;
   }
   uint32_t lowest = UINT32_MAX, highest = 0;
   for (unsigned i = 0; i < h.e_phnum; i++) {
     Elf32_Phdr ph;
-    if (fseek(f, (long)(h.e_phoff + (uint64_t)i * h.e_phentsize), SEEK_SET) != 0 || fread(&ph, sizeof ph, 1, f) != 1) {
-      snprintf(err, err_len, "%s: truncated ELF program header", path);
+    if (!elf_program_header(f, &h, i, &ph, path, err, err_len)) {
       fclose(f);
       return false;
     }
-    if (ph.p_type != PT_LOAD || ph.p_filesz == 0 || ph.p_vaddr >= AVR_EEPROM_SPACE) {
+    if (ph.p_type != PT_LOAD || ph.p_filesz == 0 || ph.p_vaddr >= ELF_AVR_EEPROM_SPACE) {
       continue;
     }
     if ((uint64_t)ph.p_paddr + ph.p_filesz > flash_bytes) {

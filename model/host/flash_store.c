@@ -2,11 +2,9 @@
 #include "flash_store.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include "state_file.h"
@@ -51,23 +49,13 @@ static int read_all(int fd, uint8_t *out, size_t size) {
 }
 
 int flash_store_load(const char *path, uint64_t identity, uint8_t *flash, size_t size, char *err, size_t err_len) {
-  /* O_NONBLOCK: opening a FIFO must not wait for a writer; it is refused below. */
-  const int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  off_t file_size;
+  const int fd = state_file_open(path, &file_size, err, err_len);
   if (fd < 0) {
-    if (errno == ENOENT) {
-      return FLASH_STORE_ABSENT;
-    }
-    snprintf(err, err_len, "cannot read %s: %s", path, strerror(errno));
-    return -1;
-  }
-  struct stat st;
-  if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-    snprintf(err, err_len, "%s is not a regular file", path);
-    close(fd);
-    return -1;
+    return fd == STATE_FILE_ABSENT ? FLASH_STORE_ABSENT : -1;
   }
   uint8_t header[FLASH_STORE_HEADER_BYTES];
-  if ((size_t)st.st_size != FLASH_STORE_HEADER_BYTES + size || read_all(fd, header, sizeof header) != 0 ||
+  if ((size_t)file_size != FLASH_STORE_HEADER_BYTES + size || read_all(fd, header, sizeof header) != 0 ||
       memcmp(header, MAGIC, sizeof MAGIC) != 0 || get_le(header + 8, 4) != size ||
       get_le(header + 12, 4) != FLASH_STORE_VERSION) {
     close(fd);

@@ -6,7 +6,28 @@
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
+
+int state_file_open(const char *path, off_t *size, char *err, size_t err_len) {
+  /* O_NONBLOCK: opening a FIFO must not wait for a writer; it is refused below. */
+  const int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) {
+    if (errno == ENOENT) {
+      return STATE_FILE_ABSENT;
+    }
+    snprintf(err, err_len, "cannot read %s: %s", path, strerror(errno));
+    return -1;
+  }
+  struct stat st;
+  if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    snprintf(err, err_len, "%s is not a regular file", path);
+    close(fd);
+    return -1;
+  }
+  *size = st.st_size;
+  return fd;
+}
 
 static int write_all(int fd, const uint8_t *data, size_t size) {
   size_t done = 0;

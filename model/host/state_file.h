@@ -7,6 +7,14 @@
 #define SIM_STATE_FILE_H
 
 #include <stddef.h>
+#include <sys/types.h>
+
+/* state_file_open()'s answer when path does not exist. */
+#define STATE_FILE_ABSENT (-2)
+
+/* Opens path for reading; it must be a regular file (a FIFO is refused without waiting for a
+ * writer). Returns the descriptor with *size set, STATE_FILE_ABSENT, or -1 with err set. */
+int state_file_open(const char *path, off_t *size, char *err, size_t err_len);
 
 /* Replaces path with data[0..size) atomically. Returns 0, or -1 with err set. */
 int state_file_replace(const char *path, const void *data, size_t size, char *err, size_t err_len);
