@@ -78,23 +78,22 @@ class BootClient:
             return answer
         raise BootError(f"{what}: {problem} ({attempts} attempt{'s' if attempts > 1 else ''})")
 
-    def info(self, attempts=1):
-        """The raw answer to INFO (any error byte), or None when nothing answered."""
+    def _first_answer(self, instruction, attempts):
+        """The first answer to instruction in up to `attempts` tries (any error byte), or None."""
         for _ in range(attempts):
             try:
-                return self.servo.exchange(INFO)
+                return self.servo.exchange(instruction)
             except (NoAnswer, BadChecksum):
                 continue
         return None
 
+    def info(self, attempts=1):
+        """The raw answer to INFO (any error byte), or None when nothing answered."""
+        return self._first_answer(INFO, attempts)
+
     def ping(self, attempts=1):
         """The answer to PING, or None."""
-        for _ in range(attempts):
-            try:
-                return self.servo.exchange(PING)
-            except (NoAnswer, BadChecksum):
-                continue
-        return None
+        return self._first_answer(PING, attempts)
 
     def application_read(self, address, count):
         """The application's answer to READ DATA (0x02) of count bytes from address, or None."""
