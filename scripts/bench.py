@@ -338,8 +338,8 @@ def bootloader_figures(emu, fw, build, row):
 
 
 def ax12_app_bytes(hex_path):
-    from intelhex import IntelHex
-    return len(IntelHex(hex_path))
+    import ax12_app_image
+    return len(ax12_app_image.load(hex_path).data)
 
 
 def main():
