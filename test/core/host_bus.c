@@ -3,20 +3,20 @@
 #include <string.h>
 
 #include "conformance_log.h"
-#include "dxl_after.h"
-#include "dxl_after_port.h"
+#include "dxl_link_port.h"
 #include "dxl_protocol.h"
 
 #define BITS_PER_BYTE 10u /* start, 8 data, stop */
 #define BAUD_CLOCK_HZ 2000000u
 #define BAUD_TOLERANCE_PERCENT 3u
-#define POLL_STEP_MS 50u /* finders are polled at least this often while idle */
+#define POLL_STEP_MS 50u /* the links tick at least this often while idle */
 #define PENDING_MAX (4u * HOST_BUS_MAX_SERVOS) /* replies one byte can cause (rescans included) */
 
 typedef struct {
   size_t servo_index;
   uint64_t start_us;
-  dxl_response_t response;
+  uint8_t bytes[DXL_REPLY_MAX_BYTES];
+  uint8_t length;
 } pending_reply_t;
 
 static uint32_t baud_bps(uint8_t baud_register) { return BAUD_CLOCK_HZ / ((uint32_t)baud_register + 1u); }
@@ -38,11 +38,39 @@ static void set_temperature(host_bus_t *bus, host_bus_servo_t *hs) {
   hs->servo.table[CT_ADDR_PRESENT_TEMPERATURE] = bus->temperature_c;
 }
 
+/* The board side of the link (fake_uart.h hooks): a store rebuilds the EEPROM image at once
+ * (the firmware's takes milliseconds: docs/firmware.md); a handled packet is counted and shown
+ * to the observer. */
+static void on_store(void *context, const uint8_t *table) {
+  host_bus_servo_t *hs = context;
+  dxl_image_build(hs->eeprom_image, table);
+}
+
+static void on_handled(void *context, dxl_find_result_t found, const uint8_t *bytes, uint16_t length,
+                       const dxl_response_t *response) {
+  host_bus_servo_t *hs = context;
+  host_bus_t *bus = hs->bus;
+  if (found == DXL_FIND_PACKET) {
+    hs->packets++;
+  } else {
+    hs->bad_checksums++;
+  }
+  hs->rx_count = hs->uart.taken_count;
+  if (bus->observer != NULL) {
+    const host_bus_event_t event = {hs->index, found, hs->rx_count - hs->link.finder.fill, bytes, length, response};
+    bus->observer(bus->observer_context, bus, &event);
+  }
+}
+
 static void power_up(host_bus_t *bus, host_bus_servo_t *hs) {
   dxl_servo_power_up(&hs->servo, dxl_image_settings(hs->eeprom_image), HOST_BUS_PRESENT_POSITION);
   set_temperature(bus, hs);
-  dxl_finder_init(&hs->finder);
-  hs->uart_baud = hs->servo.table[CT_ADDR_BAUD_RATE];
+  fake_uart_init(&hs->uart, hs->servo.table[CT_ADDR_BAUD_RATE]);
+  hs->uart.on_store = on_store;
+  hs->uart.on_handled = on_handled;
+  hs->uart.context = hs;
+  hs->uart.now_us = bus->now_us;
+  dxl_link_init(&hs->link, &hs->servo, &hs->uart);
 }
 
 void host_bus_init(host_bus_t *bus, const uint8_t *ids, size_t count, uint8_t baud, uint8_t temperature_c) {
@@ -52,6 +80,8 @@ void host_bus_init(host_bus_t *bus, const uint8_t *ids, size_t count, uint8_t ba
   bus->temperature_c = temperature_c;
   for (size_t i = 0; i < bus->servo_count; i++) {
     host_bus_servo_t *hs = &bus->servos[i];
+    hs->bus = bus;
+    hs->index = i;
     dxl_servo_power_up(&hs->servo, NULL, HOST_BUS_PRESENT_POSITION); /* factory defaults */
     hs->servo.table[CT_ADDR_ID] = ids[i];
     hs->servo.table[CT_ADDR_BAUD_RATE] = baud;
@@ -61,70 +91,53 @@ void host_bus_init(host_bus_t *bus, const uint8_t *ids, size_t count, uint8_t ba
   conformance_on_bus_init(bus);
 }
 
-/* The board side of the after-reply policy (dxl_after_port.h): the port is the servo. A
- * store is complete at once here (the firmware's takes milliseconds: docs/firmware.md). */
-void dxl_after_port_persist(void *port, const uint8_t *table) {
-  host_bus_servo_t *hs = port;
-  dxl_image_build(hs->eeprom_image, table);
+/* Points a servo's link, UART and hooks at the servo itself (after power-up or a copy). */
+static void wire(host_bus_t *bus, host_bus_servo_t *hs, size_t index) {
+  hs->bus = bus;
+  hs->index = index;
+  hs->uart.on_store = on_store;
+  hs->uart.on_handled = on_handled;
+  hs->uart.context = hs;
+  hs->link.port = &hs->uart;
+  if (hs->uart.reply_bytes != NULL) { /* the link's response: the reply it loaded */
+    hs->uart.reply_bytes = hs->link.response.bytes;
+  }
 }
 
-void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
-  host_bus_servo_t *hs = port;
-  hs->uart_baud = baud_register;
+void host_bus_copy(host_bus_t *dst, const host_bus_t *src) {
+  memcpy(dst, src, sizeof *dst);
+  for (size_t i = 0; i < dst->servo_count; i++) {
+    wire(dst, &dst->servos[i], i);
+  }
 }
 
-/* What follows a reply (dxl_after.h); a factory reset also clears Present Temperature,
- * which the harness stands in for the control layer to fill. */
-static void after_reply(host_bus_t *bus, host_bus_servo_t *hs, uint8_t after) {
-  dxl_after_reply(&hs->servo, after, hs);
-  if (after & DXL_AFTER_FACTORY_RESET) {
-    set_temperature(bus, hs);
+/* The link takes what waits in the servo's ring (as the firmware's main loop passes do), and
+ * a reply it starts is collected. Present Temperature, which a factory reset clears, is the
+ * harness's to fill (the control layer's on the firmware). */
+static void service(host_bus_t *bus, host_bus_servo_t *hs, pending_reply_t *pending, size_t *pending_count) {
+  hs->uart.now_us = bus->now_us;
+  do {
+    hs->uart.woken = false;
+    dxl_link_service_rx(&hs->link, &hs->servo);
+  } while (hs->uart.woken);
+  hs->rx_count = hs->uart.taken_count;
+  set_temperature(bus, hs);
+  if (hs->uart.reply_state == DXL_LINK_REPLY_SENDING && *pending_count < PENDING_MAX) {
+    pending_reply_t *p = &pending[(*pending_count)++];
+    p->servo_index = hs->index;
+    p->start_us = hs->uart.reply_start_us;
+    p->length = hs->uart.reply_length;
+    memcpy(p->bytes, hs->uart.reply_bytes, p->length);
+    hs->uart.reply_state = DXL_LINK_REPLY_WAITING; /* collected: on the wire until sent */
   }
 }
 
 static void deliver(host_bus_t *bus, size_t sender, uint8_t sender_baud, uint8_t byte, pending_reply_t *pending,
                     size_t *pending_count);
 
-/* Feeds one byte to one servo and collects what it wants to send. */
-static void receive(host_bus_t *bus, size_t index, uint8_t byte, pending_reply_t *pending, size_t *pending_count) {
-  host_bus_servo_t *hs = &bus->servos[index];
-  dxl_finder_push(&hs->finder, byte, now_ms(bus));
-  hs->rx_count++;
-  dxl_packet_t packet;
-  dxl_find_result_t found;
-  while ((found = dxl_finder_next(&hs->finder, &packet)) != DXL_FIND_NONE) {
-    /* The packet is bytes[0 .. 4 + LENGTH) of the finder, the newest byte its fill-1. */
-    const size_t length = 4u + hs->finder.bytes[3];
-    uint8_t framed[DXL_PACKET_MAX_BYTES];
-    memcpy(framed, hs->finder.bytes, length);
-    const uint64_t first_rx_index = hs->rx_count - hs->finder.fill;
-
-    dxl_response_t response;
-    if (found == DXL_FIND_PACKET) {
-      hs->packets++;
-      dxl_servo_handle(&hs->servo, &packet, &response);
-    } else {
-      hs->bad_checksums++;
-      dxl_servo_reject_checksum(&hs->servo, &packet, &response);
-    }
-    dxl_after_commit(&hs->servo, response.after, hs); /* dxl_servo_handle committed */
-    if (bus->observer != NULL) {
-      const host_bus_event_t event = {index, found, first_rx_index, framed, length, &response};
-      bus->observer(bus->observer_context, bus, &event);
-    }
-    if (response.length == 0 || *pending_count == PENDING_MAX) {
-      after_reply(bus, hs, response.after);
-    } else {
-      pending_reply_t *p = &pending[(*pending_count)++];
-      p->servo_index = index;
-      p->start_us = bus->now_us + response.delay_us;
-      p->response = response;
-    }
-  }
-}
-
 /* Transmits the collected replies, earliest start first; each reply's bytes reach the master
- * and the other servos (whose own replies, if any, follow in the same way). */
+ * and the other servos (whose own replies, if any, follow in the same way). Once a servo's
+ * reply has left, its link applies what follows it and takes what waited meanwhile. */
 static void transmit_replies(host_bus_t *bus, pending_reply_t *pending, size_t pending_count) {
   bool sent[PENDING_MAX] = {false};
   uint64_t bus_free_us = 0;
@@ -144,11 +157,11 @@ static void transmit_replies(host_bus_t *bus, pending_reply_t *pending, size_t p
     if (r->start_us > bus->now_us) {
       bus->now_us = r->start_us;
     }
-    for (uint8_t i = 0; i < r->response.length; i++) {
+    for (uint8_t i = 0; i < r->length; i++) {
       pending_reply_t echo_pending[PENDING_MAX];
       size_t echo_count = 0;
-      bus->now_us += byte_time_us(hs->uart_baud);
-      deliver(bus, r->servo_index, hs->uart_baud, r->response.bytes[i], echo_pending, &echo_count);
+      bus->now_us += byte_time_us(hs->uart.baud_register);
+      deliver(bus, r->servo_index, hs->uart.baud_register, r->bytes[i], echo_pending, &echo_count);
       /* A status packet is never an instruction for the others (their IDs differ), but
        * should one answer, it is transmitted after this reply. */
       if (echo_count != 0) {
@@ -156,7 +169,15 @@ static void transmit_replies(host_bus_t *bus, pending_reply_t *pending, size_t p
       }
     }
     bus_free_us = bus->now_us;
-    after_reply(bus, hs, r->response.after);
+    fake_uart_reply_sent(&hs->uart);
+    hs->uart.now_us = bus->now_us;
+    dxl_link_service_reply(&hs->link, &hs->servo);
+    pending_reply_t more[PENDING_MAX];
+    size_t more_count = 0;
+    service(bus, hs, more, &more_count);
+    if (more_count != 0) {
+      transmit_replies(bus, more, more_count);
+    }
   }
 }
 
@@ -168,8 +189,11 @@ static void deliver(host_bus_t *bus, size_t sender, uint8_t sender_baud, uint8_t
     bus->heard[bus->heard_len++] = byte;
   }
   for (size_t i = 0; i < bus->servo_count; i++) {
-    if (i != sender && host_bus_bauds_match(sender_baud, bus->servos[i].uart_baud)) {
-      receive(bus, i, byte, pending, pending_count);
+    host_bus_servo_t *hs = &bus->servos[i];
+    if (i != sender && host_bus_bauds_match(sender_baud, hs->uart.baud_register)) {
+      hs->uart.now_us = bus->now_us;
+      (void)fake_uart_receive(&hs->uart, byte);
+      service(bus, hs, pending, pending_count);
     }
   }
 }
@@ -199,7 +223,13 @@ void host_bus_wait_ms(host_bus_t *bus, uint32_t ms) {
     bus->now_us += (uint64_t)step * 1000u;
     ms -= step;
     for (size_t i = 0; i < bus->servo_count; i++) {
-      dxl_finder_poll(&bus->servos[i].finder, now_ms(bus));
+      host_bus_servo_t *hs = &bus->servos[i];
+      pending_reply_t pending[PENDING_MAX];
+      size_t pending_count = 0;
+      hs->uart.now_us = bus->now_us;
+      dxl_link_tick(&hs->link, &hs->servo, now_ms(bus));
+      service(bus, hs, pending, &pending_count);
+      transmit_replies(bus, pending, pending_count);
     }
   }
 }

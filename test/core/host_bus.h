@@ -1,7 +1,8 @@
 /* A Dynamixel bus on the host: N servos of the protocol core and a master, wired together.
  *
- * Each servo is a dxl_servo_t with its own dxl_finder_t, a UART baud (the Baud Rate register
- * value it runs at) and an EEPROM image (dxl_image_build) that survives power cycles.
+ * Each servo is a dxl_servo_t behind the firmware's link layer (firmware/link/dxl_link.h) on a
+ * fake UART (test/support/fake_uart.h: its baud is the Baud Rate register value it runs at),
+ * with an EEPROM image (dxl_image_build) that survives power cycles.
  *
  * Model (what the host harness decides; the simavr level has the real timing):
  * - Time is a microsecond clock. A byte takes 10 bit times at its sender's baud
@@ -13,11 +14,14 @@
  *   before the master's next byte. Replies whose time windows overlap are still delivered
  *   one after the other, and `collision` is set. A reply reaches the master and every other
  *   servo (which frame and ignore it); a servo does not hear its own echo.
- * - What follows a packet is the firmware's own policy (firmware/link/dxl_after.h): a write of
- *   the EEPROM area rebuilds the servo's EEPROM image when it is committed (at once here: the
- *   firmware's store takes milliseconds in the background); after the reply has left (or at
- *   once when the servo stays silent) RESET's factory defaults are stored and a new Baud Rate
- *   applies to the servo's UART.
+ * - Each servo's link is the firmware's (no sniff: every packet goes through the finder and is
+ *   answered from the link, as the firmware's main loop answers what its sniff does not arm):
+ *   one reply at a time, bytes that come meanwhile wait in its ring; what follows a packet is
+ *   the firmware's own policy (firmware/link/dxl_after.h): a write of the EEPROM area rebuilds
+ *   the servo's EEPROM image when it is committed (at once here: the firmware's store takes
+ *   milliseconds in the background); after the reply has left (or at once when the servo
+ *   stays silent) RESET's factory defaults are stored and a new Baud Rate applies to the
+ *   servo's UART. The link's tick runs every POLL_STEP_MS of a wait.
  * - Present Position at power-up is HOST_BUS_PRESENT_POSITION (512, mid travel): there is no
  *   plant here. The control layer is not in the core either, so the harness writes Present
  *   Temperature (the `temperature` directive) after every power-up and factory reset, and
@@ -33,8 +37,10 @@
 #include <stdint.h>
 
 #include "dxl_image.h"
+#include "dxl_link.h"
 #include "dxl_packet.h"
 #include "dxl_servo.h"
+#include "fake_uart.h"
 
 #define HOST_BUS_MAX_SERVOS 32u
 #define HOST_BUS_PRESENT_POSITION 512u
@@ -43,7 +49,7 @@
 typedef struct host_bus host_bus_t;
 
 /* Called for every packet a servo's finder framed, after the servo handled it.
- * first_rx_index: index (in the bytes this servo has received since host_bus_init) of the
+ * first_rx_index: index (in the bytes this servo's link has taken since host_bus_init) of the
  * packet's first byte; bytes/length: the packet as framed (FF FF ID LENGTH ... CHECKSUM). */
 typedef struct {
   size_t servo_index;
@@ -58,12 +64,14 @@ typedef void (*host_bus_observer_t)(void *context, const host_bus_t *bus, const 
 
 typedef struct {
   dxl_servo_t servo;
-  dxl_finder_t finder;
+  dxl_link_t link;
+  fake_uart_t uart;    /* baud_register: the Baud Rate register value the UART runs at */
   uint8_t eeprom_image[DXL_IMAGE_BYTES];
-  uint8_t uart_baud;   /* Baud Rate register value the UART runs at */
-  uint64_t rx_count;   /* bytes received since host_bus_init */
+  uint64_t rx_count;   /* bytes the link has taken since host_bus_init */
   unsigned packets;    /* DXL_FIND_PACKET results handled */
   unsigned bad_checksums;
+  host_bus_t *bus;
+  size_t index;
 } host_bus_servo_t;
 
 struct host_bus {
@@ -82,6 +90,10 @@ struct host_bus {
 /* Servos fresh from the factory with the given IDs and Baud Rate register, powered up;
  * the master at the same baud. */
 void host_bus_init(host_bus_t *bus, const uint8_t *ids, size_t count, uint8_t baud, uint8_t temperature_c);
+
+/* dst becomes a copy of src that runs on its own (a plain struct copy would share src's
+ * servos: each servo's link and UART point at each other). */
+void host_bus_copy(host_bus_t *dst, const host_bus_t *src);
 
 /* The master sends bytes (clears heard[] and collision first). */
 void host_bus_send(host_bus_t *bus, const uint8_t *bytes, size_t length);

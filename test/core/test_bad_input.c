@@ -175,7 +175,7 @@ static void flip_one(const loaded_conv_t *lc, size_t s, size_t byte, unsigned bi
   conv_bus_init(&bus, &lc->conv);
   replay_steps(&bus, &lc->conv, 0, s, context);
   tables_of(&bus, before);
-  reference = bus;
+  host_bus_copy(&reference, &bus);
 
   uint8_t flipped[DXL_PACKET_MAX_BYTES + 8];
   memcpy(flipped, step->send, step->send_len);
@@ -579,7 +579,7 @@ static void test_a_random_stream_runs_exactly_its_valid_packets(void **state) {
     if (until == sent && next_gap < stream.inserted_count) {
       assert_true(gaps < GAPS_MAX);
       gap_held_to[gaps] = bus.servos[0].rx_count;
-      gap_held_from[gaps] = bus.servos[0].rx_count - bus.servos[0].finder.fill;
+      gap_held_from[gaps] = bus.servos[0].rx_count - bus.servos[0].link.finder.fill;
       host_bus_wait_ms(&bus, STREAM_GAP_MS);
       gaps++;
       next_gap++;

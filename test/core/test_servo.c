@@ -967,7 +967,7 @@ static void test_reset_restores_factory_defaults_persisted_and_replies_with_the_
   when_master_sends(&bus, 9, DXL_INST_RESET, NO_PARAMS);
   then_status_is(&bus, 9, 0, NO_PARAMS); /* old ID, old baud */
   assert_memory_equal(the_servo()->table, fresh.servos[0].servo.table, CT_SIZE);
-  assert_int_equal(bus.servos[0].uart_baud, 1);
+  assert_int_equal(bus.servos[0].uart.baud_register, 1);
   host_bus_power_cycle(&bus);
   assert_memory_equal(the_servo()->table, fresh.servos[0].servo.table, CT_SIZE);
   host_bus_set_master_baud(&bus, 1);

@@ -1,10 +1,11 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The firmware's two readers of the bus, side by side: the same random stream of packets,
  * garbage, corrupted and truncated packets, other servos' packets and status packets goes to
- * the ELF in simavr (its RX interrupt's sniff, then the main loop's packet finder) and to the
- * host bus of the core tests (test/core/host_bus.h: the packet finder alone, the reader
- * docs/conformance.md is generated from). After every piece of the stream, what the master
- * heard must be the same bytes on both, with two differences counted, not failed:
+ * the ELF in simavr (its RX interrupt's sniff, then the link layer's packet finder) and to the
+ * host bus of the core tests (test/core/host_bus.h: the same link layer on a fake UART without
+ * the sniff, the reader docs/conformance.md is generated from). After every piece of the
+ * stream, and during every gap, what the master heard must be the same bytes on both, with two
+ * differences counted, not failed:
  *   - a candidate packet for another servo: the ELF's sniff skips it by its LENGTH without a
  *     checksum test or a rescan, the finder rescans it when its checksum fails
  *     (docs/policy.md "Resynchronisation"); counted up to the next gap and the WRITEs after it;
@@ -161,8 +162,6 @@ static void run_stream(uint32_t seed) {
   rng_t r = {seed};
   unsigned answered = 0;
   unsigned differences = 0;
-  uint8_t during_gap[HARNESS_MAX_REPLY];
-  size_t during_gap_len = 0;
   unsigned skipped_alike_by_policy = 0;
   unsigned collisions = 0;
   bool another_servos_since_gap = false;
@@ -175,21 +174,18 @@ static void run_stream(uint32_t seed) {
     /* The one difference docs/policy.md decides ("Resynchronisation"): a candidate for
      * another servo is skipped by the ELF by its LENGTH, without a checksum test or a
      * rescan, and framed by the finder, which rescans it when its checksum fails. */
-    const dxl_finder_t *finder = &host.servos[0].finder;
-    /* (up to the next gap, which ends every partial packet on both sides, and the WRITEs
-     * after it: the host bus answers what it rescans then with the first byte after it) */
+    const dxl_finder_t *finder = &host.servos[0].link.finder;
+    /* (up to the next gap, which ends every partial packet on both sides, the replies to what
+     * both rescan then, and the WRITEs after it) */
     another_servos_since_gap |=
         finder->fill > 2u && finder->bytes[2] != OWN_ID && finder->bytes[2] != DXL_ID_BROADCAST;
     host_bus_send(&host, s.bytes, s.length);
-    /* What the ELF answered during the gap before this piece (it rescans the bytes before a
-     * gap when it notices it; the host bus does so at the next byte) counts with this piece.
-     * A piece the host does not answer is followed by 10 ms of silence, far from the 100 ms
+    /* A piece the host does not answer is followed by 10 ms of silence, far from the 100 ms
      * gap rule (harness_exchange would wait 90 ms, where the ELF's millisecond clock and the
      * host's microsecond clock can decide a gap differently). */
-    memcpy(heard, during_gap, during_gap_len);
-    size_t got = during_gap_len;
-    if (host.heard_len > during_gap_len) {
-      got += harness_exchange(&h, s.bytes, s.length, host.heard_len - during_gap_len, heard + got, sizeof heard - got);
+    size_t got = 0;
+    if (host.heard_len > 0) {
+      got = harness_exchange(&h, s.bytes, s.length, host.heard_len, heard, sizeof heard);
     } else {
       master_rx_clear(h.master);
       world_run_until(h.world, master_send(h.master, s.bytes, s.length) + sim_ms(QUIET_MS));
@@ -197,7 +193,6 @@ static void run_stream(uint32_t seed) {
         heard[got++] = master_rx(h.master, k)->value;
       }
     }
-    during_gap_len = 0;
     /* A collision: a byte on the wire overlapped another sender's, or a reply began before
      * the piece's last stop bit had ended. The bus flags an overlap only up to the middle of
      * that stop bit (where a receiver samples it); a reply that starts in its second half
@@ -240,11 +235,26 @@ static void run_stream(uint32_t seed) {
     }
     answered += host.heard_len != 0;
     if (s.gap_after) {
+      /* Both rescan the bytes before the gap when they notice it, and answer what they find
+       * then, during the gap. */
+      const size_t heard_before_gap = host.heard_len;
       host_bus_wait_ms(&host, GAP_MS);
       master_rx_clear(h.master);
       world_run_until(h.world, h.world->now + sim_ms(GAP_MS));
-      for (size_t k = 0; k < master_rx_count(h.master) && during_gap_len < sizeof during_gap; k++) {
-        during_gap[during_gap_len++] = master_rx(h.master, k)->value;
+      got = 0;
+      for (size_t k = 0; k < master_rx_count(h.master) && got < sizeof heard; k++) {
+        heard[got++] = master_rx(h.master, k)->value;
+      }
+      const size_t host_gap_len = host.heard_len - heard_before_gap;
+      if (got != host_gap_len || memcmp(heard, host.heard + heard_before_gap, got) != 0) {
+        if (another_servos_since_gap) {
+          skipped_alike_by_policy++;
+        } else if (differences++ < 5) {
+          char text[2][600];
+          hex(host.heard + heard_before_gap, host_gap_len, text[0], sizeof text[0]);
+          hex(heard, got, text[1], sizeof text[1]);
+          print_message("the gap after piece %u:\n  host reader heard %s\n  ELF heard         %s\n", n, text[0], text[1]);
+        }
       }
       /* After the gap both sides hold nothing, but either may have run a packet the other
        * skipped before it: both start again from the same RAM items and no registered write
@@ -257,11 +267,7 @@ static void run_stream(uint32_t seed) {
                                      : packet_encode(restore, OWN_ID, DXL_INST_WRITE, nothing_registered,
                                                      sizeof nothing_registered);
         host_bus_send(&host, restore, length);
-        memcpy(heard, during_gap, during_gap_len);
-        size_t got_back = during_gap_len;
-        got_back += harness_exchange(&h, restore, length, host.heard_len - during_gap_len, heard + got_back,
-                                     sizeof heard - got_back);
-        during_gap_len = 0;
+        const size_t got_back = harness_exchange(&h, restore, length, host.heard_len, heard, sizeof heard);
         if (got_back != host.heard_len || memcmp(heard, host.heard, got_back) != 0) {
           if (another_servos_since_gap) {
             skipped_alike_by_policy++;
