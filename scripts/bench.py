@@ -342,6 +342,65 @@ def ax12_app_bytes(hex_path):
     return len(ax12_app_image.load(hex_path).data)
 
 
+def size_figures(bench, elf, mcu, row):
+    """Flash, static RAM and the deepest stack (ax12-bench stack) of one application ELF."""
+    flash, ram = avr_size(elf)
+    stack = run_json([bench, "stack", elf])["stack_deepest_bytes"]
+    goal88 = mcu == "atmega88"
+    row("size", "%s flash" % mcu, flash, "B", "<= %d (75 %%)" % (FLASH_ATMEGA88 * 3 // 4) if goal88 else "",
+        "%s_flash_bytes" % mcu)
+    row("size", "%s static RAM" % mcu, ram, "B", "", "%s_static_ram_bytes" % mcu)
+    row("size", "%s deepest stack" % mcu, stack, "B", "", "%s_stack_bytes" % mcu)
+    row("size", "%s RAM incl. stack" % mcu, ram + stack, "B", "<= %d (75 %%)" % (RAM_ATMEGA88 * 3 // 4) if goal88 else "",
+        "%s_ram_with_stack_bytes" % mcu)
+
+def reply_and_load_figures(bench, elf, quick, row, r):
+    """The reply timing at Return Delay Time 0 and over RDT 1..254, and the sustained 30-servo
+    1 Mbps load, of one ATmega88 ELF (ax12-bench, simulated cycles: exact)."""
+    t = run_json([bench, "turnaround", elf, "200"])
+    for kind, label in (("ping", "PING"), ("read2", "2-byte READ"), ("write2", "2-byte WRITE")):
+        for stat in ("median", "worst"):
+            cycles = t["%s_%s_cycles" % (kind, stat)]
+            row("reply at RDT 0", "%s %s" % (label, stat), cycles, "cycles", "<= 160 (10 us)", "turnaround_%s_%s_cycles" % (kind, stat))
+            r["turnaround_%s_%s_us" % (kind, stat)] = cycles / CYCLES_PER_US
+        row("reply at RDT 0", "%s jitter" % label, t["%s_worst_cycles" % kind] - t["%s_min_cycles" % kind], "cycles",
+            "a few", "turnaround_%s_jitter_cycles" % kind)
+
+    rdt = run_json([bench, "rdt", elf])
+    for key, value in rdt.items():
+        r[key] = value
+    row("Return Delay Time", "PING, worst error over RDT 1..254", rdt["rdt_worst_error_us"], "us", "within +-2",
+        "rdt_worst_error_us")
+    for v in (1, 2, 5, 10, 50, 100, 250, 254):
+        row("Return Delay Time", "RDT %d: PING / 2-byte READ worst error" % v,
+            "%.2f / %.2f" % (rdt["rdt_%d_worst_error_us" % v], rdt["rdt_%d_read_worst_error_us" % v]), "us",
+            "within +-2")
+
+    s = run_json([bench, "sustained", elf, "30", "1" if quick else "3"])
+    row("sustained 1 Mbps", "SYNC_WRITE x 30 servos, simulated", s["simulated_s"], "s", "", "sustained_simulated_s")
+    row("sustained 1 Mbps", "wire busy", s["wire_busy_fraction"], "", "1.0", "sustained_wire_busy_fraction")
+    lost = s["bytes_lost_uart_overrun"] + max(s["bytes_dropped_by_firmware"], 0)
+    row("sustained 1 Mbps", "bytes lost", lost, "B", "0", "sustained_bytes_lost")
+    row("sustained 1 Mbps", "goals wrong after the load", s["goals_wrong_after_load"], "servos", "0",
+        "sustained_goals_wrong")
+    # timer_ticks_expected counts whole milliseconds of the window: a servo may see one more.
+    row("sustained 1 Mbps", "timer ticks missed", max(0, s["timer_ticks_expected"] - s["timer_ticks"]), "ticks", "0",
+        "sustained_timer_ticks_missed")
+    if s["control_ticks_run"] >= 0:
+        row("sustained 1 Mbps", "control ticks missed", max(0, s["timer_ticks_expected"] - s["control_ticks_run"]),
+            "ticks", "0", "sustained_control_ticks_missed")
+
+
+def host_cost_figure(bench, elf, row):
+    # The host's cost of the 30-servo client loop, machine-independent: callgrind's instruction
+    # count inside bench_client_loops (the loaded window of ax12-bench speed), per simulated
+    # servo-second.
+    loaded_s = 0.1
+    instructions, speed = host_instructions([bench, "speed", elf, "30", str(loaded_s)], "bench_client_loops")
+    row("host cost (callgrind)", "30-servo client loop, per simulated servo-second", instructions / (30 * speed["loaded_sim_s"]),
+        "instructions", "no higher than before", "host_instructions_per_servo_s_30")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--build", required=True)
@@ -353,6 +412,9 @@ def main():
                     help="only the 30-servo SDK loop without and with the dashboard open")
     ap.add_argument("--bootloader-only", action="store_true",
                     help="only the bootloader's size and the time of an update over the bus")
+    ap.add_argument("--firmware-only", action="store_true",
+                    help="only the ATmega88 application's size, reply timing, sustained load and host cost")
+    ap.add_argument("--elf", help="with --firmware-only: this ATmega88 ELF instead of the build's (a before/after)")
     a = ap.parse_args()
     ax12_build.use(a.build)
     fw = os.path.join(a.build, "firmware")
@@ -377,6 +439,20 @@ def main():
         print("\nbench: wrote %s" % a.out)
         return
 
+    if a.firmware_only:
+        elf = a.elf or elf
+        size_figures(bench, elf, "atmega88", row)
+        reply_and_load_figures(bench, elf, a.quick, row, r)
+        host_cost_figure(bench, elf, row)
+        print("figures of %s" % elf)
+        for _, name, value, unit, goal in rows:
+            text = ("%.3f" % value) if isinstance(value, float) else str(value)
+            print("  %-58s %14s  %-12s %s" % (name, text, unit, goal))
+        with open(a.out, "w") as f:
+            json.dump(r, f, indent=1, sort_keys=True)
+        print("\nbench: wrote %s" % a.out)
+        return
+
     if a.dashboard_only:
         dashboard_cost(emu, fw, 3 if a.quick else 6, row)
         for _, name, value, unit, goal in rows:
@@ -396,15 +472,7 @@ def main():
         return
 
     for mcu in ("atmega88", "atmega328p"):
-        flash, ram = avr_size(os.path.join(fw, "ax12-ax12-%s.elf" % mcu))
-        stack = run_json([bench, "stack", os.path.join(fw, "ax12-ax12-%s.elf" % mcu)])["stack_deepest_bytes"]
-        goal88 = mcu == "atmega88"
-        row("size", "%s flash" % mcu, flash, "B", "<= %d (75 %%)" % (FLASH_ATMEGA88 * 3 // 4) if goal88 else "",
-            "%s_flash_bytes" % mcu)
-        row("size", "%s static RAM" % mcu, ram, "B", "", "%s_static_ram_bytes" % mcu)
-        row("size", "%s deepest stack" % mcu, stack, "B", "", "%s_stack_bytes" % mcu)
-        row("size", "%s RAM incl. stack" % mcu, ram + stack, "B", "<= %d (75 %%)" % (RAM_ATMEGA88 * 3 // 4) if goal88 else "",
-            "%s_ram_with_stack_bytes" % mcu)
+        size_figures(bench, os.path.join(fw, "ax12-ax12-%s.elf" % mcu), mcu, row)
 
     bootloader_figures(emu, fw, a.build, row)
 
@@ -414,38 +482,7 @@ def main():
     row("flash by module (ATmega328P, no LTO)", "sum (LTO shares and inlines across them)", modules_total, "B", "",
         "flash_modules_total_bytes")
 
-    t = run_json([bench, "turnaround", elf, "200"])
-    for kind, label in (("ping", "PING"), ("read2", "2-byte READ"), ("write2", "2-byte WRITE")):
-        for stat in ("median", "worst"):
-            cycles = t["%s_%s_cycles" % (kind, stat)]
-            row("reply at RDT 0", "%s %s" % (label, stat), cycles, "cycles", "<= 160 (10 us)", "turnaround_%s_%s_cycles" % (kind, stat))
-            r["turnaround_%s_%s_us" % (kind, stat)] = cycles / CYCLES_PER_US
-        row("reply at RDT 0", "%s jitter" % label, t["%s_worst_cycles" % kind] - t["%s_min_cycles" % kind], "cycles",
-            "a few", "turnaround_%s_jitter_cycles" % kind)
-
-    rdt = run_json([bench, "rdt", elf])
-    for key, value in rdt.items():
-        r[key] = value
-    row("Return Delay Time", "PING, worst error over RDT 1..254", rdt["rdt_worst_error_us"], "us", "within +-2",
-        "rdt_worst_error_us")
-    for v in (1, 2, 5, 10, 50, 100, 250, 254):
-        row("Return Delay Time", "RDT %d: PING / 2-byte READ worst error" % v,
-            "%.2f / %.2f" % (rdt["rdt_%d_worst_error_us" % v], rdt["rdt_%d_read_worst_error_us" % v]), "us",
-            "within +-2")
-
-    s = run_json([bench, "sustained", elf, "30", "1" if a.quick else "3"])
-    row("sustained 1 Mbps", "SYNC_WRITE x 30 servos, simulated", s["simulated_s"], "s", "", "sustained_simulated_s")
-    row("sustained 1 Mbps", "wire busy", s["wire_busy_fraction"], "", "1.0", "sustained_wire_busy_fraction")
-    lost = s["bytes_lost_uart_overrun"] + max(s["bytes_dropped_by_firmware"], 0)
-    row("sustained 1 Mbps", "bytes lost", lost, "B", "0", "sustained_bytes_lost")
-    row("sustained 1 Mbps", "goals wrong after the load", s["goals_wrong_after_load"], "servos", "0",
-        "sustained_goals_wrong")
-    # timer_ticks_expected counts whole milliseconds of the window: a servo may see one more.
-    row("sustained 1 Mbps", "timer ticks missed", max(0, s["timer_ticks_expected"] - s["timer_ticks"]), "ticks", "0",
-        "sustained_timer_ticks_missed")
-    if s["control_ticks_run"] >= 0:
-        row("sustained 1 Mbps", "control ticks missed", max(0, s["timer_ticks_expected"] - s["control_ticks_run"]),
-            "ticks", "0", "sustained_control_ticks_missed")
+    reply_and_load_figures(bench, elf, a.quick, row, r)
 
     try:
         aw = run_json([bench, "awake", elf])
@@ -465,13 +502,7 @@ def main():
         row("simulation speed", "%d servos, unthrottled, client loop" % n, loaded, "x real time", ">= 1",
             "speed_%d_loaded_fast" % n)
 
-    # The host's cost of the 30-servo client loop, machine-independent: callgrind's instruction
-    # count inside bench_client_loops (the loaded window of ax12-bench speed), per simulated
-    # servo-second.
-    loaded_s = 0.1
-    instructions, speed = host_instructions([bench, "speed", elf, "30", str(loaded_s)], "bench_client_loops")
-    row("host cost (callgrind)", "30-servo client loop, per simulated servo-second", instructions / (30 * speed["loaded_sim_s"]),
-        "instructions", "no higher than before", "host_instructions_per_servo_s_30")
+    host_cost_figure(bench, elf, row)
 
     ping = sdk_ping_median_ms(emu, fw, 50 if a.quick else 200)
     row("real clients", "DynamixelSDK ping, median (%s)" % DEFAULT_ADAPTER, ping, "ms", "", "sdk_ping_median_ms")

@@ -195,7 +195,14 @@ void dxl_link_service_rx(dxl_link_t *link, dxl_servo_t *servo) {
       const dxl_find_result_t found = dxl_finder_next(&link->finder, &packet);
       if (found == DXL_FIND_NONE) {
         link->finder_dirty = false;
-        return; /* back to the main loop (watchdog, tick) between batches */
+        /* Back to the main loop (watchdog, tick) between batches: at once when bytes came
+         * meanwhile (or waited for a reply's end), else with the sniff listening. */
+        if (dxl_link_port_rx_head(link->port) != dxl_link_port_rx_tail(link->port)) {
+          dxl_link_port_wake(link->port);
+        } else {
+          sniff_start(link, servo);
+        }
+        return;
       }
       if (found == DXL_FIND_PACKET) {
         on_packet(link, servo, &packet);

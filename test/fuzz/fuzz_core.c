@@ -1,13 +1,13 @@
 /* The fuzzed core (issue #15): a libFuzzer harness that runs one servo's core and link layer
- * the way the firmware's main loop does (firmware/app/main.c), from a script decoded from the
+ * the way the firmware's main loop does (firmware/link/dxl_link.c), from a script decoded from the
  * input (fuzz_ops.h), and checks after every operation what must always hold. A violation
  * prints what broke and aborts, so libFuzzer saves the input.
  *
- * Driven as main.c drives it: bytes into the finder one at a time or in batches
+ * Driven as dxl_link.c drives it: bytes into the finder one at a time or in batches
  * (dxl_finder_push_slot/pushed, as far as it has room, results taken between), every result
  * taken until DXL_FIND_NONE; a good packet prepared, committed, dxl_after_commit, then
  * dxl_after_reply at once or after the reply's time on the wire, while control ticks and
- * EEPROM writes run (main.c service_reply); a bad checksum through
+ * EEPROM writes run (dxl_link.c service_reply); a bad checksum through
  * dxl_servo_reject_checksum; the sniff's path (a streamable packet to this servo while the
  * finder holds nothing: all but the checksum pushed, the candidate prepared, the checksum
  * pushed, the early response committed); gap polls and 1 ms control ticks; the EEPROM
@@ -568,7 +568,7 @@ static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned p
 }
 
 /* ---------------------------------------------------------------------------------------
- * main.c's paths
+ * dxl_link.c's paths
  * --------------------------------------------------------------------------------------- */
 
 static void compare_with_reference(world_t *w, dxl_find_result_t found, const dxl_packet_t *p) {
@@ -656,7 +656,7 @@ static void check_angle_condition(const world_t *w, const char *when) {
   }
 }
 
-/* main.c on_packet(), with early != NULL: the sniff's path, whose response was prepared from
+/* dxl_link.c on_packet(), with early != NULL: the sniff's path, whose response was prepared from
  * the candidate. */
 static void handle_packet(world_t *w, const dxl_packet_t *p, const dxl_response_t *early) {
   dxl_servo_t before;
@@ -673,7 +673,7 @@ static void handle_packet(world_t *w, const dxl_packet_t *p, const dxl_response_
          memcmp(early->window_data, r.window_data, r.window_len) != 0)) {
       fail("the response prepared before the checksum differs from the complete packet's");
     }
-    memcpy(&r, early, sizeof r); /* main.c commits what it prepared early */
+    memcpy(&r, early, sizeof r); /* dxl_link.c commits what it prepared early */
   }
   dxl_servo_commit(&w->servo, &r);
   dxl_after_commit(&w->servo, r.after, w);
@@ -693,7 +693,7 @@ static void handle_packet(world_t *w, const dxl_packet_t *p, const dxl_response_
   if (r.length != 0 && early == NULL && w->reply_ms != 0) {
     /* The reply is on the wire for reply_ms: the main loop runs control ticks and EEPROM
      * writes (one every 4 ms) meanwhile and takes no packet; what follows the reply waits for
-     * its end (main.c service_reply). */
+     * its end (dxl_link.c service_reply). */
     for (unsigned i = 0; i < w->reply_ms; i++) {
       w->now_ms++;
       control_tick(w);
@@ -715,7 +715,7 @@ static void handle_packet(world_t *w, const dxl_packet_t *p, const dxl_response_
   }
 }
 
-/* main.c on_bad_checksum(). */
+/* dxl_link.c on_bad_checksum(). */
 static void handle_bad_checksum(world_t *w, const dxl_packet_t *p) {
   dxl_servo_t before;
   memcpy(&before, &w->servo, sizeof before);
@@ -775,8 +775,8 @@ static void push_byte(world_t *w, uint8_t byte) {
   drain(w);
 }
 
-/* main.c push_waiting_bytes() until all are in: each batch as far as the finder has room,
- * its results taken (service_rx) before the next. An empty batch (count 0) is what main.c's
+/* dxl_link.c push_waiting_bytes() until all are in: each batch as far as the finder has room,
+ * its results taken (service_rx) before the next. An empty batch (count 0) is what dxl_link.c's
  * armed path does while the checksum is still on the wire: push_slot (which polls the gap)
  * and pushed(0). */
 static void push_batch(world_t *w, const uint8_t *bytes, size_t count) {
@@ -980,7 +980,7 @@ static void start(world_t *w, input_t *in) {
  * --------------------------------------------------------------------------------------- */
 
 /* Whether the RX interrupt's sniff would arm this packet's reply (dxl_servo.h "Streamed
- * replies"), given that it starts only while the finder holds nothing (main.c sniff_start). */
+ * replies"), given that it starts only while the finder holds nothing (dxl_link.c sniff_start). */
 static bool sniff_arms(const world_t *w, uint8_t id, uint8_t instruction, uint8_t param_count, const uint8_t *params) {
   if (!dxl_finder_idle(&w->finder) || id != w->servo.table[CT_ADDR_ID] || instruction >= 8u) {
     return false;
@@ -991,11 +991,11 @@ static bool sniff_arms(const world_t *w, uint8_t id, uint8_t instruction, uint8_
   return !(instruction == DXL_INST_WRITE && param_count >= 1 && params[0] < DXL_STREAM_WRITE_MIN_ADDR);
 }
 
-/* main.c service_rx()'s armed path: all but the checksum, the candidate prepared, then the
+/* dxl_link.c service_rx()'s armed path: all but the checksum, the candidate prepared, then the
  * checksum; a mismatch goes on through the finder like any byte. */
 static void deliver_early(world_t *w, const uint8_t *bytes, size_t count, uint8_t id, uint8_t instruction,
                           uint8_t param_count, const uint8_t *params) {
-  push_batch(w, bytes, count - 1u); /* its drain() is main.c's dxl_finder_next(): NONE */
+  push_batch(w, bytes, count - 1u); /* its drain() is dxl_link.c's dxl_finder_next(): NONE */
   dxl_packet_t candidate;
   dxl_finder_candidate(&w->finder, &candidate);
   if (candidate.id != id || candidate.instruction != instruction || candidate.param_count != param_count ||

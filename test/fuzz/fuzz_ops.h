@@ -36,7 +36,7 @@
  *   EEPROM_FLUSH -                      the store runs to its end
  *   CUT          how, garbage, pos16    power cut: how & 1: in the middle of a byte's write
  *                                       (left at garbage), else between writes; then power-up
- *   EMPTY_BATCH  -                      push_slot + pushed(0) (main.c's armed path does that
+ *   EMPTY_BATCH  -                      push_slot + pushed(0) (dxl_link.c's armed path does that
  *                                       while the checksum is on the wire)
  *
  * PACKET: sel = id (bits 0-1: this servo's, broadcast, another given by the next byte, this

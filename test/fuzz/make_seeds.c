@@ -223,7 +223,7 @@ int main(int argc, char **argv) {
   save("garbage_resync");
 
   start_one(1);
-  /* a packet started, an empty batch 60 ms later (main.c's armed path), the rest 60 ms later */
+  /* a packet started, an empty batch 60 ms later (dxl_link.c's armed path), the rest 60 ms later */
   bytes(7, FUZZ_OP_PUSH_BATCH, 5, 0xFF, 0xFF, 0x01, 0x02, 0x01);
   wait(60);
   b(FUZZ_OP_EMPTY_BATCH);
