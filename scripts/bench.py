@@ -355,8 +355,9 @@ def size_figures(bench, elf, mcu, row):
         "%s_ram_with_stack_bytes" % mcu)
 
 def reply_and_load_figures(bench, elf, quick, row, r):
-    """The reply timing at Return Delay Time 0 and over RDT 1..254, and the sustained 30-servo
-    1 Mbps load, of one ATmega88 ELF (ax12-bench, simulated cycles: exact)."""
+    """The reply timing at Return Delay Time 0 and over RDT 1..254, the sustained 30-servo 1 Mbps
+    load and a garbage flood, of one ATmega88 ELF (ax12-bench, simulated cycles: exact). The
+    firmware's drop counter saturates at 255 a servo."""
     t = run_json([bench, "turnaround", elf, "200"])
     for kind, label in (("ping", "PING"), ("read2", "2-byte READ"), ("write2", "2-byte WRITE")):
         for stat in ("median", "worst"):
@@ -389,6 +390,16 @@ def reply_and_load_figures(bench, elf, quick, row, r):
     if s["control_ticks_run"] >= 0:
         row("sustained 1 Mbps", "control ticks missed", max(0, s["timer_ticks_expected"] - s["control_ticks_run"]),
             "ticks", "0", "sustained_control_ticks_missed")
+
+    g = run_json([bench, "sustained", elf, "30", "0.5", "garbage"])
+    row("garbage flood 1 Mbps", "bad-checksum SYNC_WRITE x 30 servos, simulated", g["simulated_s"], "s", "",
+        "flood_simulated_s")
+    row("garbage flood 1 Mbps", "bytes lost", g["bytes_lost_uart_overrun"] + max(g["bytes_dropped_by_firmware"], 0),
+        "B", "0", "flood_bytes_lost")
+    row("garbage flood 1 Mbps", "control ticks missed", max(0, g["timer_ticks_expected"] - g["control_ticks_run"]),
+        "ticks", "0", "flood_control_ticks_missed")
+    row("garbage flood 1 Mbps", "servos silent 120 ms after it", g["servos_silent_after"], "servos", "0",
+        "flood_servos_silent_after")
 
 
 def host_cost_figure(bench, elf, row):

@@ -55,8 +55,9 @@ typedef enum {
 
 /* The counters first: within reach of the AVR's 0..63 load/store displacement (DXL_OPAQUE). */
 typedef struct {
+  uint16_t start;       /* the held bytes are bytes[start .. start + fill) */
   uint16_t fill;        /* bytes held */
-  uint16_t examined;    /* leading bytes of bytes[] accepted as the candidate so far */
+  uint16_t examined;    /* leading held bytes accepted as the candidate so far */
   uint16_t release;     /* bytes to drop before the next scan (a returned result's) */
   uint16_t before_gap;  /* leading bytes that came before a gap: no packet runs past them */
   uint8_t sum;          /* ID + LENGTH + body over the examined bytes */
@@ -91,8 +92,14 @@ static inline bool dxl_finder_idle(const dxl_finder_t *finder) {
 /* The candidate as examined so far: valid once its instruction has been examined (and the
  * finder returned DXL_FIND_NONE since); its checksum field is meaningful only once the
  * checksum is in. Lets the caller prepare a reply while the last bytes are still on the
- * wire, when it knows from elsewhere (the firmware's sniff) where the candidate ends. */
+ * wire, when it knows from elsewhere (the firmware's sniff) where the candidate ends: the
+ * candidate's bytes (packet->params) stay where they are across pushes until it ends (unless
+ * it fills the finder). */
 void dxl_finder_candidate(const dxl_finder_t *finder, dxl_packet_t *packet);
+
+/* The bytes held, fill of them (the candidate first): a returned packet is the first
+ * 4 + LENGTH of them until the next push or next call. */
+const uint8_t *dxl_finder_held(const dxl_finder_t *finder);
 
 /* The Protocol 1.0 checksum of ID, LENGTH and the body bytes. */
 uint8_t dxl_checksum(const uint8_t *id_length_body, uint16_t count);

@@ -15,8 +15,8 @@ static bool link_free(const dxl_link_t *link) {
 /* The packet the finder returned (or, on the armed path, completes) as framed: it is still
  * at the front of the finder's bytes. */
 static void report_handled(dxl_link_t *link, dxl_find_result_t found) {
-  const dxl_finder_t *f = &link->finder;
-  dxl_link_port_handled(link->port, found, f->bytes, (uint16_t)(4u + f->bytes[3]), &link->response);
+  const uint8_t *bytes = dxl_finder_held(&link->finder);
+  dxl_link_port_handled(link->port, found, bytes, (uint16_t)(4u + bytes[3]), &link->response);
 }
 
 /* Starts the prepared (or rejected) packet's reply, its bytes final once prepared; what must

@@ -358,5 +358,15 @@ int main(int argc, char **argv) {
   ping(OWN, EARLY);
   save("protocol2_frames");
 
+  start_one(1);
+  /* packets to this servo through the armed path after an extra leading 0xFF (the finder drops
+   * it while the candidate is examined): a WRITE whose response points into the candidate,
+   * a REG_WRITE, then a READ of what they wrote */
+  write1(W, OWN, EARLY | FUZZ_MODE_EXTRA_FF(1), 25, 1);
+  write2(R, OWN, EARLY | FUZZ_MODE_EXTRA_FF(2), 30, 700);
+  bare(FUZZ_INST_ACTION, OWN, EARLY | FUZZ_MODE_EXTRA_FF(1));
+  read_(OWN, EARLY | FUZZ_MODE_EXTRA_FF(3), 24, 10);
+  save("early_extra_ff");
+
   return 0;
 }

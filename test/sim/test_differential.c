@@ -178,7 +178,7 @@ static void run_stream(uint32_t seed) {
     /* (up to the next gap, which ends every partial packet on both sides, the replies to what
      * both rescan then, and the WRITEs after it) */
     another_servos_since_gap |=
-        finder->fill > 2u && finder->bytes[2] != OWN_ID && finder->bytes[2] != DXL_ID_BROADCAST;
+        finder->fill > 2u && dxl_finder_held(finder)[2] != OWN_ID && dxl_finder_held(finder)[2] != DXL_ID_BROADCAST;
     host_bus_send(&host, s.bytes, s.length);
     /* A piece the host does not answer is followed by 10 ms of silence, far from the 100 ms
      * gap rule (harness_exchange would wait 90 ms, where the ELF's millisecond clock and the

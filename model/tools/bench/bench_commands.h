@@ -3,9 +3,11 @@
 #ifndef BENCH_COMMANDS_H
 #define BENCH_COMMANDS_H
 
+#include <stdbool.h>
+
 void bench_turnaround(unsigned requests);             /* bench_reply_timing.c */
 void bench_rdt(void);                                 /* bench_reply_timing.c */
-void bench_sustained(unsigned servos, double seconds); /* bench_load.c */
+void bench_sustained(unsigned servos, double seconds, bool garbage); /* bench_load.c */
 void bench_speed(unsigned servos, double seconds);    /* bench_load.c */
 void bench_awake(void);                               /* bench_cycles.c */
 void bench_profile(unsigned servos, double seconds);  /* bench_cycles.c */

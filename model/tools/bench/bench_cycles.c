@@ -58,7 +58,22 @@ void bench_profile(unsigned servos, double seconds) {
   printf("\"holding_awake_cycles\": %llu, ", (unsigned long long)(awake_cycles_of_all(&r) - awake));
   print_cycle_profile("holding", word_cycles, words);
   awake = awake_cycles_of_all(&r);
-  const unsigned loops = bench_client_loops(&r, servos, r.world->now + span);
+  unsigned loops = 0;
+  if (getenv("AX12_PROFILE_SYNC")) {
+    uint8_t p[200];
+    const sim_cycles_t until = r.world->now + span;
+    while (r.world->now < until) {
+      if (r.master->tx_end <= r.world->now + US(200)) {
+        size_t n = bench_sync_write_goals(p, servos, loops / 200, true);
+        if (getenv("AX12_PROFILE_GARBAGE")) { p[n] = p[n - 1u]; p[n - 1u] = 0x55; n++; }
+        master_send(r.master, p, n);
+        loops++;
+      }
+      world_run_until(r.world, r.world->now + US(50));
+    }
+  } else {
+    loops = bench_client_loops(&r, servos, r.world->now + span);
+  }
   printf(", \"loops\": %u, \"loop_awake_cycles\": %llu, ", loops,
          (unsigned long long)(awake_cycles_of_all(&r) - awake));
   print_cycle_profile("loop", word_cycles, words);

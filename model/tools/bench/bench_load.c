@@ -10,7 +10,20 @@
 /* Load: back-to-back SYNC_WRITEs (bytes lost), and the simulation's speed idle and under the
  * client loop. */
 
-void bench_sustained(unsigned servos, double seconds) {
+/* Every servo answers a PING (after a quiet spell past the 100 ms gap rule); returns how many
+ * do not. */
+static unsigned servos_silent(bench_rig_t *r, unsigned servos) {
+  world_run_until(r->world, r->world->now + MS(120));
+  unsigned silent = 0;
+  for (unsigned id = 1; id <= servos; id++) {
+    uint8_t q[8], reply[8];
+    bench_exchange(r, q, packet_encode(q, (uint8_t)id, DXL_INST_PING, NULL, 0), 6);
+    silent += master_rx_values(r->master, reply, sizeof reply) != 6;
+  }
+  return silent;
+}
+
+void bench_sustained(unsigned servos, double seconds, bool garbage) {
   bench_rig_t r;
   bench_rig_open(&r, servos);
   long dropped_before = 0, ticks_before = 0, control_before = 0;
@@ -27,7 +40,13 @@ void bench_sustained(unsigned servos, double seconds) {
   size_t bytes = 0;
   while (r.world->now < until) {
     if (r.master->tx_end <= r.world->now + US(200)) { /* keep the wire busy: no gap */
-      const size_t n = bench_sync_write_goals(p, servos, packets / 200, true);
+      size_t n = bench_sync_write_goals(p, servos, packets / 200, true);
+      if (garbage) { /* one byte more than LENGTH says before the checksum: a bad checksum,
+                        and a candidate the finder rescans byte by byte */
+        p[n] = p[n - 1u];
+        p[n - 1u] = 0x55;
+        n++;
+      }
       master_send(r.master, p, n);
       packets++;
       bytes += n;
@@ -45,11 +64,12 @@ void bench_sustained(unsigned servos, double seconds) {
     overruns += r.world->servos[i]->board.link.rx_overruns;
   }
   overruns -= overruns_before;
-  /* Check the last SYNC_WRITE landed: read every goal back after the load. */
+  /* Check the last SYNC_WRITE landed: read every goal back after the load (after garbage:
+   * every servo answers again). */
   unsigned wrong_goals = 0;
   world_run_until(r.world, r.world->now + MS(5));
   const unsigned phase = (packets - 1) / 200;
-  for (unsigned id = 1; id <= servos; id++) {
+  for (unsigned id = 1; id <= servos && !garbage; id++) {
     uint8_t q[8], params[2] = {30, 2}, reply[8];
     bench_exchange(&r, q, packet_encode(q, (uint8_t)id, DXL_INST_READ, params, 2), 8);
     const size_t got = master_rx_values(r.master, reply, sizeof reply);
@@ -57,10 +77,11 @@ void bench_sustained(unsigned servos, double seconds) {
     wrong_goals += !(got == 8 && (unsigned)(reply[5] | reply[6] << 8) == goal);
   }
   const long expected_ticks = (long)elapsed_ms * (long)servos; /* whole milliseconds: each servo may count one more */
-  printf("{\"servos\": %u, \"simulated_s\": %.3f, \"packets\": %u, \"bytes\": %zu, \"wire_busy_fraction\": %.4f, "
+  const unsigned silent_after = garbage ? servos_silent(&r, servos) : 0;
+  printf("{\"garbage\": %s, \"servos_silent_after\": %u, \"servos\": %u, \"simulated_s\": %.3f, \"packets\": %u, \"bytes\": %zu, \"wire_busy_fraction\": %.4f, "
          "\"bytes_lost_uart_overrun\": %llu, \"bytes_dropped_by_firmware\": %ld, \"goals_wrong_after_load\": %u, "
          "\"timer_ticks\": %ld, \"timer_ticks_expected\": %ld, \"control_ticks_run\": %ld}\n",
-         servos, elapsed_ms / 1000.0, packets, bytes, (double)bytes * 10.0 / (elapsed_ms * 1000.0),
+         garbage ? "true" : "false", silent_after, servos, elapsed_ms / 1000.0, packets, bytes, (double)bytes * 10.0 / (elapsed_ms * 1000.0),
          (unsigned long long)overruns, dropped < 0 ? -1 : dropped, wrong_goals, ticks, expected_ticks,
          control_before < 0 ? -1 : control);
   bench_rig_close(&r);

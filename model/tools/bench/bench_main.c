@@ -5,7 +5,9 @@
  *
  *   ax12-bench turnaround ELF [REQUESTS]   reply start after the request's stop bit, RDT 0
  *   ax12-bench rdt ELF                     reply start error against 2 us x RDT
- *   ax12-bench sustained ELF SERVOS SECONDS back-to-back SYNC_WRITE at 1 Mbps: bytes lost
+ *   ax12-bench sustained ELF SERVOS SECONDS [garbage]
+ *                                          back-to-back SYNC_WRITE at 1 Mbps: bytes lost; with
+ *                                          garbage, each with a bad checksum (a garbage flood)
  *   ax12-bench speed ELF SERVOS SECONDS    simulated seconds per wall second, idle and loaded
  *   ax12-bench stack ELF                   deepest stack after a workload of every instruction
  *   ax12-bench awake ELF                   share of cycles the MCU is awake: idle, holding
@@ -31,7 +33,7 @@ int main(int argc, char **argv) {
   } else if (strcmp(argv[1], "rdt") == 0) {
     bench_rdt();
   } else if (strcmp(argv[1], "sustained") == 0 && argc > 4) {
-    bench_sustained((unsigned)atoi(argv[3]), atof(argv[4]));
+    bench_sustained((unsigned)atoi(argv[3]), atof(argv[4]), argc > 5 && strcmp(argv[5], "garbage") == 0);
   } else if (strcmp(argv[1], "awake") == 0) {
     bench_awake();
   } else if (strcmp(argv[1], "stack") == 0) {
