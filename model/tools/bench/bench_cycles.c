@@ -36,9 +36,10 @@ static uint64_t awake_cycles_of_all(const bench_rig_t *r) {
 }
 
 /* Awake cycles by instruction, summed over the servos (scripts/firmware_profile names them):
- * `seconds` holding a position with torque on and no traffic, then `seconds` of the client
- * loop of `speed`. One JSON object. */
-void bench_profile(unsigned servos, double seconds) {
+ * `seconds` holding a position with torque on and no traffic, then `seconds` of the load: the
+ * client loop of `speed`, or back-to-back SYNC_WRITEs (with garbage: each a bad checksum).
+ * "loops" counts client loops or packets. One JSON object. */
+void bench_profile(unsigned servos, double seconds, bench_load_t load) {
   bench_rig_t r;
   bench_rig_open(&r, servos);
   (void)world_set_threads(r.world, 1); /* the servos share one array */
@@ -58,22 +59,9 @@ void bench_profile(unsigned servos, double seconds) {
   printf("\"holding_awake_cycles\": %llu, ", (unsigned long long)(awake_cycles_of_all(&r) - awake));
   print_cycle_profile("holding", word_cycles, words);
   awake = awake_cycles_of_all(&r);
-  unsigned loops = 0;
-  if (getenv("AX12_PROFILE_SYNC")) {
-    uint8_t p[200];
-    const sim_cycles_t until = r.world->now + span;
-    while (r.world->now < until) {
-      if (r.master->tx_end <= r.world->now + US(200)) {
-        size_t n = bench_sync_write_goals(p, servos, loops / 200, true);
-        if (getenv("AX12_PROFILE_GARBAGE")) { p[n] = p[n - 1u]; p[n - 1u] = 0x55; n++; }
-        master_send(r.master, p, n);
-        loops++;
-      }
-      world_run_until(r.world, r.world->now + US(50));
-    }
-  } else {
-    loops = bench_client_loops(&r, servos, r.world->now + span);
-  }
+  const sim_cycles_t until = r.world->now + span;
+  const unsigned loops = load == BENCH_LOAD_CLIENT_LOOP ? bench_client_loops(&r, servos, until)
+                                                        : bench_back_to_back(&r, servos, until, load == BENCH_LOAD_GARBAGE, NULL);
   printf(", \"loops\": %u, \"loop_awake_cycles\": %llu, ", loops,
          (unsigned long long)(awake_cycles_of_all(&r) - awake));
   print_cycle_profile("loop", word_cycles, words);

@@ -34,25 +34,9 @@ void bench_sustained(unsigned servos, double seconds, bool garbage) {
   }
   uint64_t overruns_before = 0;
   for (size_t i = 0; i < r.world->servo_count; i++) overruns_before += r.world->servos[i]->board.link.rx_overruns;
-  uint8_t p[200];
   const sim_cycles_t t0 = r.world->now, until = t0 + (sim_cycles_t)(seconds * 1e6 * SIM_CYCLES_PER_US);
-  unsigned packets = 0;
   size_t bytes = 0;
-  while (r.world->now < until) {
-    if (r.master->tx_end <= r.world->now + US(200)) { /* keep the wire busy: no gap */
-      size_t n = bench_sync_write_goals(p, servos, packets / 200, true);
-      if (garbage) { /* one byte more than LENGTH says before the checksum: a bad checksum,
-                        and a candidate the finder rescans byte by byte */
-        p[n] = p[n - 1u];
-        p[n - 1u] = 0x55;
-        n++;
-      }
-      master_send(r.master, p, n);
-      packets++;
-      bytes += n;
-    }
-    world_run_until(r.world, r.world->now + US(50));
-  }
+  const unsigned packets = bench_back_to_back(&r, servos, until, garbage, &bytes);
   world_run_until(r.world, r.master->tx_end);
   const double elapsed_ms = (double)(r.world->now - t0) / SIM_CYCLES_PER_US / 1000.0;
   long dropped = -dropped_before, ticks = -ticks_before, control = -control_before;

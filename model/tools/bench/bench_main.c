@@ -12,8 +12,11 @@
  *   ax12-bench stack ELF                   deepest stack after a workload of every instruction
  *   ax12-bench awake ELF                   share of cycles the MCU is awake: idle, holding
  *                                          a position (control loop alone), full bus load
- *   ax12-bench profile ELF SERVOS SECONDS  awake cycles by instruction address, holding and
- *                                          under the client loop (scripts/firmware_profile)
+ *   ax12-bench profile ELF SERVOS SECONDS [loop|sync|garbage]
+ *                                          awake cycles by instruction address, holding and
+ *                                          under a load: the client loop, back-to-back
+ *                                          SYNC_WRITEs, or those with bad checksums
+ *                                          (scripts/firmware_profile)
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -41,7 +44,11 @@ int main(int argc, char **argv) {
   } else if (strcmp(argv[1], "speed") == 0 && argc > 4) {
     bench_speed((unsigned)atoi(argv[3]), atof(argv[4]));
   } else if (strcmp(argv[1], "profile") == 0 && argc > 4) {
-    bench_profile((unsigned)atoi(argv[3]), atof(argv[4]));
+    const char *load = argc > 5 ? argv[5] : "loop";
+    bench_profile((unsigned)atoi(argv[3]), atof(argv[4]),
+                  strcmp(load, "sync") == 0      ? BENCH_LOAD_SYNC_WRITES
+                  : strcmp(load, "garbage") == 0 ? BENCH_LOAD_GARBAGE
+                                                 : BENCH_LOAD_CLIENT_LOOP);
   } else {
     fprintf(stderr, "ax12-bench: unknown command or missing arguments\n");
     return 2;

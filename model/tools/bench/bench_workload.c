@@ -35,6 +35,28 @@ void bench_torque_on_all(bench_rig_t *r, unsigned servos) {
   master_send(r->master, p, packet_encode(p, 0xFE, DXL_INST_SYNC_WRITE, torque_on, n));
 }
 
+unsigned bench_back_to_back(bench_rig_t *r, unsigned servos, sim_cycles_t until, bool garbage, size_t *bytes) {
+  uint8_t p[200];
+  unsigned packets = 0;
+  while (r->world->now < until) {
+    if (r->master->tx_end <= r->world->now + US(200)) { /* keep the wire busy: no gap */
+      size_t n = bench_sync_write_goals(p, servos, packets / 200, true);
+      if (garbage) {
+        p[n] = p[n - 1u];
+        p[n - 1u] = 0x55;
+        n++;
+      }
+      master_send(r->master, p, n);
+      packets++;
+      if (bytes != NULL) {
+        *bytes += n;
+      }
+    }
+    world_run_until(r->world, r->world->now + US(50));
+  }
+  return packets;
+}
+
 unsigned bench_client_loops(bench_rig_t *r, unsigned servos, sim_cycles_t until) {
   unsigned loops = 0;
   uint8_t p[200];

@@ -25,4 +25,10 @@ void bench_torque_on_all(bench_rig_t *r, unsigned servos);
  * Returns the loops completed. */
 unsigned bench_client_loops(bench_rig_t *r, unsigned servos, sim_cycles_t until);
 
+/* Back-to-back SYNC_WRITEs of goals and speeds to servos 1..servos until simulated time
+ * `until`, the wire never idle; with garbage each has a bad checksum (a byte more than its
+ * LENGTH says before it), so every servo rejects and rescans it. Returns the packets sent;
+ * *bytes (if not NULL) counts their bytes. */
+unsigned bench_back_to_back(bench_rig_t *r, unsigned servos, sim_cycles_t until, bool garbage, size_t *bytes);
+
 #endif
