@@ -290,8 +290,9 @@ static void test_packets_that_come_during_a_reply_wait_for_its_end(void **state)
   sent();
 }
 
-/* The armed path: the fake plays the RX interrupt's sniff, arming at the last byte but one. */
-static void arrive_armed(uint8_t instruction, const uint8_t *params, size_t count, bool checksum_good) {
+/* The armed path: the fake plays the RX interrupt's sniff. A packet to this servo arrives up
+ * to its checksum, the sniff arming at the last byte but one; returns the checksum. */
+static uint8_t arrive_up_to_checksum(uint8_t instruction, const uint8_t *params, size_t count) {
   uint8_t packet[DXL_PACKET_MAX_BYTES];
   const size_t length = packet_encode(packet, FACTORY_ID, instruction, params, count);
   assert_int_equal(rig.uart.sniff, DXL_LINK_SNIFF_WAITING);
@@ -300,11 +301,19 @@ static void arrive_armed(uint8_t instruction, const uint8_t *params, size_t coun
     fake_uart_receive(&rig.uart, packet[i]);
     if (i + 2 == length) {
       fake_uart_arm(&rig.uart, instruction == DXL_INST_PING && count == 0);
+      assert_int_equal(fake_uart_reply_ready(&rig.uart), count == 0 && instruction == DXL_INST_PING
+                                                             ? DXL_PING_REPLY_BYTES
+                                                             : DXL_STREAM_HEADER_BYTES);
     }
     run();
   }
+  return packet[length - 1];
+}
+
+static void arrive_armed(uint8_t instruction, const uint8_t *params, size_t count, bool checksum_good) {
+  const uint8_t checksum = arrive_up_to_checksum(instruction, params, count);
   rig.uart.now_us += BYTE_US;
-  fake_uart_checksum(&rig.uart, checksum_good ? packet[length - 1] : (uint8_t)(packet[length - 1] ^ 1u), checksum_good);
+  fake_uart_checksum(&rig.uart, checksum_good ? checksum : (uint8_t)(checksum ^ 1u), checksum_good);
   run();
 }
 
@@ -327,23 +336,13 @@ static void test_an_armed_read_is_published_before_its_checksum_and_committed_af
   (void)state;
   rig_up(true);
   const uint8_t params[] = {CT_ADDR_ID, 2};
-  uint8_t packet[16];
-  const size_t length = packet_encode(packet, FACTORY_ID, DXL_INST_READ, params, sizeof params);
-  for (size_t i = 0; i + 1 < length; i++) {
-    rig.uart.now_us += BYTE_US;
-    fake_uart_receive(&rig.uart, packet[i]);
-    if (i + 2 == length) {
-      fake_uart_arm(&rig.uart, false);
-      assert_int_equal(fake_uart_reply_ready(&rig.uart), DXL_STREAM_HEADER_BYTES);
-    }
-    run();
-  }
+  const uint8_t checksum = arrive_up_to_checksum(DXL_INST_READ, params, sizeof params);
   /* The checksum is still on the wire: the whole reply is published already. */
   const uint8_t items[] = {FACTORY_ID, rig.servo.table[CT_ADDR_BAUD_RATE]};
   assert_reply(0, items, sizeof items);
   assert_int_equal(fake_uart_reply_ready(&rig.uart), rig.uart.reply_length);
   rig.uart.now_us += BYTE_US;
-  fake_uart_checksum(&rig.uart, packet[length - 1], true);
+  fake_uart_checksum(&rig.uart, checksum, true);
   run();
   assert_log("armed start ");
   sent();
@@ -353,20 +352,11 @@ static void test_an_armed_eeprom_write_is_stored_after_its_checksum(void **state
   (void)state;
   rig_up(true);
   const uint8_t params[] = {CT_ADDR_CW_ANGLE_LIMIT, 0x20, 0x00};
-  uint8_t packet[16];
-  const size_t length = packet_encode(packet, FACTORY_ID, DXL_INST_WRITE, params, sizeof params);
-  for (size_t i = 0; i + 1 < length; i++) {
-    rig.uart.now_us += BYTE_US;
-    fake_uart_receive(&rig.uart, packet[i]);
-    if (i + 2 == length) {
-      fake_uart_arm(&rig.uart, false);
-    }
-    run();
-  }
+  const uint8_t checksum = arrive_up_to_checksum(DXL_INST_WRITE, params, sizeof params);
   assert_int_equal(rig.servo.table[CT_ADDR_CW_ANGLE_LIMIT], 0); /* prepared, not committed */
   assert_int_equal(rig.uart.store_count, 0);
   rig.uart.now_us += BYTE_US;
-  fake_uart_checksum(&rig.uart, packet[length - 1], true);
+  fake_uart_checksum(&rig.uart, checksum, true);
   run();
   assert_log("armed start store ");
   assert_int_equal(rig.servo.table[CT_ADDR_CW_ANGLE_LIMIT], 0x20);
@@ -388,16 +378,7 @@ static void test_an_armed_packet_whose_checksum_never_comes_is_given_up(void **s
   (void)state;
   rig_up(true);
   const uint8_t params[] = {CT_ADDR_LED, 1};
-  uint8_t packet[16];
-  const size_t length = packet_encode(packet, FACTORY_ID, DXL_INST_WRITE, params, sizeof params);
-  for (size_t i = 0; i + 1 < length; i++) {
-    rig.uart.now_us += BYTE_US;
-    fake_uart_receive(&rig.uart, packet[i]);
-    if (i + 2 == length) {
-      fake_uart_arm(&rig.uart, false);
-    }
-    run();
-  }
+  (void)arrive_up_to_checksum(DXL_INST_WRITE, params, sizeof params);
   for (unsigned ms = 0; ms < DXL_LINK_SNIFF_MAX_MS + 1u; ms++) {
     rig.uart.now_us += 1000u;
     dxl_link_tick(&rig.link, &rig.servo, dxl_link_port_now_ms(&rig.uart));
