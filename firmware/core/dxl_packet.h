@@ -55,9 +55,8 @@ typedef enum {
 
 /* The counters first: within reach of the AVR's 0..63 load/store displacement (DXL_OPAQUE). */
 typedef struct {
-  uint16_t start;       /* the held bytes are bytes[start .. start + fill) */
   uint16_t fill;        /* bytes held */
-  uint16_t examined;    /* leading held bytes accepted as the candidate so far */
+  uint16_t examined;    /* leading bytes of bytes[] accepted as the candidate so far */
   uint16_t release;     /* bytes to drop before the next scan (a returned result's) */
   uint16_t before_gap;  /* leading bytes that came before a gap: no packet runs past them */
   uint8_t sum;          /* ID + LENGTH + body over the examined bytes */
@@ -92,9 +91,7 @@ static inline bool dxl_finder_idle(const dxl_finder_t *finder) {
 /* The candidate as examined so far: valid once its instruction has been examined (and the
  * finder returned DXL_FIND_NONE since); its checksum field is meaningful only once the
  * checksum is in. Lets the caller prepare a reply while the last bytes are still on the
- * wire, when it knows from elsewhere (the firmware's sniff) where the candidate ends: the
- * candidate's bytes (packet->params) stay where they are across pushes until it ends (unless
- * it fills the finder). */
+ * wire, when it knows from elsewhere (the firmware's sniff) where the candidate ends. */
 void dxl_finder_candidate(const dxl_finder_t *finder, dxl_packet_t *packet);
 
 /* The bytes held, fill of them (the candidate first): a returned packet is the first
