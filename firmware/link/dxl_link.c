@@ -13,10 +13,13 @@ static bool link_free(const dxl_link_t *link) {
 }
 
 /* The packet the finder returned (or, on the armed path, completes) as framed: it is still
- * at the front of the finder's bytes. */
+ * at the front of the finder's bytes, FF FF ID LENGTH and LENGTH bytes more. */
+#define FRAMED_HEADER_BYTES 4u
+#define FRAMED_OFS_LENGTH 3u
 static void report_handled(dxl_link_t *link, dxl_find_result_t found) {
   const uint8_t *bytes = dxl_finder_held(&link->finder);
-  dxl_link_port_handled(link->port, found, bytes, (uint16_t)(4u + bytes[3]), &link->response);
+  dxl_link_port_handled(link->port, found, bytes, (uint16_t)(FRAMED_HEADER_BYTES + bytes[FRAMED_OFS_LENGTH]),
+                        &link->response);
 }
 
 /* Starts the prepared (or rejected) packet's reply, its bytes final once prepared; what must
