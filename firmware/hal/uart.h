@@ -158,7 +158,7 @@ static inline uint8_t uart_reply_state(void) { return uart_tx_state; }
  *         OFF, the held bytes are the finder's.
  * While the sniff runs (uart_sniff < UART_SNIFF_ARMED) the main loop leaves the ring alone
  * and the bytes do not wake it. Does nothing when a byte came first. A header that stops
- * part-way is the main loop's to drop after the gap (main.c), as the finder would.
+ * part-way is the link layer's to drop after the gap (dxl_link.c), as the finder would.
  * uart_sniff_stop_part_way: ends a running sniff past its LENGTH (not one that has armed);
  * the held bytes are then the finder's. */
 extern volatile uint8_t uart_sniff;
