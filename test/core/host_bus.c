@@ -55,43 +55,15 @@ static void on_handled(void *context, dxl_find_result_t found, const uint8_t *by
   } else {
     hs->bad_checksums++;
   }
-  hs->rx_count = hs->uart.taken_count;
   if (bus->observer != NULL) {
-    const host_bus_event_t event = {hs->index, found, hs->rx_count - hs->link.finder.fill, bytes, length, response};
+    const host_bus_event_t event = {hs->index, found, hs->uart.taken_count - hs->link.finder.fill, bytes, length,
+                                    response};
     bus->observer(bus->observer_context, bus, &event);
   }
 }
 
-static void power_up(host_bus_t *bus, host_bus_servo_t *hs) {
-  dxl_servo_power_up(&hs->servo, dxl_image_settings(hs->eeprom_image), HOST_BUS_PRESENT_POSITION);
-  set_temperature(bus, hs);
-  fake_uart_init(&hs->uart, hs->servo.table[CT_ADDR_BAUD_RATE]);
-  hs->uart.on_store = on_store;
-  hs->uart.on_handled = on_handled;
-  hs->uart.context = hs;
-  hs->uart.now_us = bus->now_us;
-  dxl_link_init(&hs->link, &hs->servo, &hs->uart);
-}
-
-void host_bus_init(host_bus_t *bus, const uint8_t *ids, size_t count, uint8_t baud, uint8_t temperature_c) {
-  memset(bus, 0, sizeof *bus);
-  bus->servo_count = count > HOST_BUS_MAX_SERVOS ? HOST_BUS_MAX_SERVOS : count;
-  bus->master_baud = baud;
-  bus->temperature_c = temperature_c;
-  for (size_t i = 0; i < bus->servo_count; i++) {
-    host_bus_servo_t *hs = &bus->servos[i];
-    hs->bus = bus;
-    hs->index = i;
-    dxl_servo_power_up(&hs->servo, NULL, HOST_BUS_PRESENT_POSITION); /* factory defaults */
-    hs->servo.table[CT_ADDR_ID] = ids[i];
-    hs->servo.table[CT_ADDR_BAUD_RATE] = baud;
-    dxl_image_build(hs->eeprom_image, hs->servo.table);
-    power_up(bus, hs);
-  }
-  conformance_on_bus_init(bus);
-}
-
-/* Points a servo's link, UART and hooks at the servo itself (after power-up or a copy). */
+/* Points a servo's link, UART and hooks at the servo itself (at power-up, before its link
+ * starts, or after a copy). */
 static void wire(host_bus_t *bus, host_bus_servo_t *hs, size_t index) {
   hs->bus = bus;
   hs->index = index;
@@ -102,6 +74,32 @@ static void wire(host_bus_t *bus, host_bus_servo_t *hs, size_t index) {
   if (hs->uart.reply_bytes != NULL) { /* the link's response: the reply it loaded */
     hs->uart.reply_bytes = hs->link.response.bytes;
   }
+}
+
+static void power_up(host_bus_t *bus, host_bus_servo_t *hs) {
+  dxl_servo_power_up(&hs->servo, dxl_image_settings(hs->eeprom_image), HOST_BUS_PRESENT_POSITION);
+  set_temperature(bus, hs);
+  fake_uart_init(&hs->uart, hs->servo.table[CT_ADDR_BAUD_RATE]);
+  hs->uart.now_us = bus->now_us;
+  wire(bus, hs, hs->index);
+  dxl_link_init(&hs->link, &hs->servo, &hs->uart);
+}
+
+void host_bus_init(host_bus_t *bus, const uint8_t *ids, size_t count, uint8_t baud, uint8_t temperature_c) {
+  memset(bus, 0, sizeof *bus);
+  bus->servo_count = count > HOST_BUS_MAX_SERVOS ? HOST_BUS_MAX_SERVOS : count;
+  bus->master_baud = baud;
+  bus->temperature_c = temperature_c;
+  for (size_t i = 0; i < bus->servo_count; i++) {
+    host_bus_servo_t *hs = &bus->servos[i];
+    hs->index = i;
+    dxl_servo_power_up(&hs->servo, NULL, HOST_BUS_PRESENT_POSITION); /* factory defaults */
+    hs->servo.table[CT_ADDR_ID] = ids[i];
+    hs->servo.table[CT_ADDR_BAUD_RATE] = baud;
+    dxl_image_build(hs->eeprom_image, hs->servo.table);
+    power_up(bus, hs);
+  }
+  conformance_on_bus_init(bus);
 }
 
 void host_bus_copy(host_bus_t *dst, const host_bus_t *src) {
@@ -120,7 +118,6 @@ static void service(host_bus_t *bus, host_bus_servo_t *hs, pending_reply_t *pend
     hs->uart.woken = false;
     dxl_link_service_rx(&hs->link, &hs->servo);
   } while (hs->uart.woken);
-  hs->rx_count = hs->uart.taken_count;
   set_temperature(bus, hs);
   if (hs->uart.reply_state == DXL_LINK_REPLY_SENDING && *pending_count < PENDING_MAX) {
     pending_reply_t *p = &pending[(*pending_count)++];

@@ -49,7 +49,7 @@
 typedef struct host_bus host_bus_t;
 
 /* Called for every packet a servo's finder framed, after the servo handled it.
- * first_rx_index: index (in the bytes this servo's link has taken since host_bus_init) of the
+ * first_rx_index: index (in the bytes this servo's link has taken since power-up, uart.taken_count) of the
  * packet's first byte; bytes/length: the packet as framed (FF FF ID LENGTH ... CHECKSUM). */
 typedef struct {
   size_t servo_index;
@@ -67,7 +67,6 @@ typedef struct {
   dxl_link_t link;
   fake_uart_t uart;    /* baud_register: the Baud Rate register value the UART runs at */
   uint8_t eeprom_image[DXL_IMAGE_BYTES];
-  uint64_t rx_count;   /* bytes the link has taken since host_bus_init */
   unsigned packets;    /* DXL_FIND_PACKET results handled */
   unsigned bad_checksums;
   host_bus_t *bus;

@@ -578,8 +578,8 @@ static void test_a_random_stream_runs_exactly_its_valid_packets(void **state) {
     size_t until = next_gap < stream.inserted_count ? (size_t)stream.inserted[next_gap].start : stream.length;
     if (until == sent && next_gap < stream.inserted_count) {
       assert_true(gaps < GAPS_MAX);
-      gap_held_to[gaps] = bus.servos[0].rx_count;
-      gap_held_from[gaps] = bus.servos[0].rx_count - bus.servos[0].link.finder.fill;
+      gap_held_to[gaps] = bus.servos[0].uart.taken_count;
+      gap_held_from[gaps] = bus.servos[0].uart.taken_count - bus.servos[0].link.finder.fill;
       host_bus_wait_ms(&bus, STREAM_GAP_MS);
       gaps++;
       next_gap++;

@@ -193,12 +193,19 @@ static void read_state_flash(const char *path, uint8_t *flash) {
   fclose(f);
 }
 
+/* A fresh state folder, and the paths of servo 1's EEPROM and flash files in it. */
+#define STATE_DIR_BYTES 256u
+#define STATE_PATH_BYTES 512u
+static void state_paths(char dir[STATE_DIR_BYTES], char eeprom_path[STATE_PATH_BYTES], char flash_path[STATE_PATH_BYTES]) {
+  harness_tempdir(dir, STATE_DIR_BYTES);
+  snprintf(eeprom_path, STATE_PATH_BYTES, "%s/servo-1.eeprom", dir);
+  snprintf(flash_path, STATE_PATH_BYTES, "%s/servo-1.flash", dir);
+}
+
 static void test_a_flash_changed_by_spm_is_persisted_kept_and_dropped_for_another_build(void **state) {
   (void)state;
-  char dir[256], eeprom_path[512], flash_path[512];
-  harness_tempdir(dir, sizeof dir);
-  snprintf(eeprom_path, sizeof eeprom_path, "%s/servo-1.eeprom", dir);
-  snprintf(flash_path, sizeof flash_path, "%s/servo-1.flash", dir);
+  char dir[STATE_DIR_BYTES], eeprom_path[STATE_PATH_BYTES], flash_path[STATE_PATH_BYTES];
+  state_paths(dir, eeprom_path, flash_path);
 
   world_t *world = open_world(AX12_BOOT_APP1_ELF, AX12_BOOT_SPM_ELF);
   servo_t *servo = add_servo(world, eeprom_path);
@@ -244,10 +251,8 @@ static void test_a_flash_changed_by_spm_is_persisted_kept_and_dropped_for_anothe
 
 static void test_a_flash_file_that_is_no_image_of_the_mcu_is_dropped(void **state) {
   (void)state;
-  char dir[256], eeprom_path[512], flash_path[512];
-  harness_tempdir(dir, sizeof dir);
-  snprintf(eeprom_path, sizeof eeprom_path, "%s/servo-1.eeprom", dir);
-  snprintf(flash_path, sizeof flash_path, "%s/servo-1.flash", dir);
+  char dir[STATE_DIR_BYTES], eeprom_path[STATE_PATH_BYTES], flash_path[STATE_PATH_BYTES];
+  state_paths(dir, eeprom_path, flash_path);
   FILE *f = fopen(flash_path, "wb");
   assert_non_null(f);
   fputs("AX12FLSH but cut short", f);

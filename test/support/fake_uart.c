@@ -78,9 +78,9 @@ uint8_t dxl_link_port_sniff_state(void *port) { return ((fake_uart_t *)port)->sn
 
 void dxl_link_port_sniff_start(void *port, uint8_t id, uint8_t mask) {
   fake_uart_t *uart = port;
+  (void)id;   /* the caller plays the sniff, knowing the packets it sends */
+  (void)mask;
   if (uart->sniff_enabled && uart->reply_state == DXL_LINK_REPLY_IDLE && uart->head == uart->tail) {
-    uart->sniff_id = id;
-    uart->sniff_mask = mask;
     uart->sniff = DXL_LINK_SNIFF_WAITING;
   }
 }
@@ -178,8 +178,6 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
 
 #if DXL_HAS_BOOTLOADER
 void dxl_after_port_enter_bootloader(void *port) {
-  fake_uart_t *uart = port;
-  uart->bootloader_count++;
-  fake_uart_log(uart, "bootloader ");
+  fake_uart_log(port, "bootloader ");
 }
 #endif

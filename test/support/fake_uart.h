@@ -44,15 +44,12 @@ struct fake_uart {
   bool sniff_enabled;
   uint8_t sniff;
   uint8_t sniff_end;
-  uint8_t sniff_id;
-  uint8_t sniff_mask;
   uint8_t skip;
   bool woken;             /* dxl_link_port_wake since the caller cleared it */
   /* The board. */
   uint8_t baud_register;  /* the last dxl_after_port_set_baud */
   uint8_t stored[CT_EEPROM_SIZE]; /* the last table stored */
   unsigned store_count;
-  unsigned bootloader_count;
   char log[FAKE_UART_LOG_BYTES];
   bool log_full;
   /* Optional hooks: a store (after it is recorded) and a packet handled. */
