@@ -5,10 +5,11 @@ page (web/dashboard, charts by uPlot from npm, installed by scripts/setup: nothi
 at run time) fed through a WebSocket from the emulator's control socket.
 
 The server holds three connections to the control socket, subscribed only while a page is
-open: every servo 5 times a second and the bus monitor's packets; the servos the pages show,
+open: every servo at the update rate (ax12_headroom: 20 times a second while the machine has a
+core to spare, 2 while it has none) and the bus monitor's packets; the servos the pages show,
 20 times a second with their control tables 5 times a second; and one for the pages' requests.
-A page gets every servo 5 times a second (its list and overview) and, in the same messages, the
-points of the servo it shows (its charts and control table): in each of them while that
+A page gets every servo at the update rate (its list and overview) and, in the same messages,
+the points of the servo it shows (its charts and control table): in each of them while that
 servo's section is on screen, once a second otherwise. A page's edit of a control-table item becomes a
 Protocol 1.0 WRITE that the emulator puts on the bus (so it obeys every rule a client's write
 obeys; the servo's status packet is the answer); a world change goes to the emulator as it is.
@@ -34,10 +35,12 @@ sys.path.insert(0, os.path.join(REPO, "python"))
 
 from aiohttp import WSMsgType, web  # noqa: E402
 
+import ax12_headroom  # noqa: E402
+
 WEB = os.path.join(REPO, "web", "dashboard")
 UPLOT = os.path.join(WEB, "node_modules", "uplot", "dist")
 TELEMETRY_HZ = 20         # the selected servo's charts
-TABLE_HZ = 5              # every servo's row; the shown servo's control table
+TABLE_HZ = 5              # the shown servo's control table
 POINTS_PERIOD_OFF_S = 1.0  # a page's chart points while its charts are off screen (else every whole event)
 POINTS_KEPT = 100         # points of a batch at most (5 s)
 PACKET_BATCHES_KEPT = 200  # for a page opened later: 10 s of batches (50 ms apart at most)
@@ -67,6 +70,7 @@ class Emulator:
         self.monitoring = {}          # open WebSocket -> whether its bus monitor is on screen
         self.shown_on_screen = {}     # open WebSocket -> whether its servo's charts are on screen
         self.points = {}              # open WebSocket -> its servo's points not sent yet
+        self.rate = ax12_headroom.UpdateRate()  # every servo's updates a second, while pages are open
 
     async def connect(self):
         self.reader, self.writer = await asyncio.open_unix_connection(self.path, limit=1 << 24)
@@ -75,11 +79,11 @@ class Emulator:
         return events_reader, charts_reader
 
     async def subscribe(self):
-        """While any page is open: every servo TABLE_HZ times a second and the packets on one
+        """While any page is open: every servo at the update rate and the packets on one
         connection; the servos the pages show, TELEMETRY_HZ times a second with their control
         tables TABLE_HZ times a second, on another. Nothing while no page is open."""
         on = bool(self.pages)
-        self.events_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": TABLE_HZ if on else 0,
+        self.events_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": self.rate.hz if on else 0,
                                              "packets": on}).encode() + b"\n")
         shown = sorted({slot for slot in self.selected.values() if isinstance(slot, int)})
         self.charts_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": TELEMETRY_HZ if on and shown else 0,
@@ -165,6 +169,29 @@ class Emulator:
                 for ws in list(self.pages):
                     if self.monitoring.get(ws, True):
                         self.relay(ws, text)
+
+    def rate_event(self, idle_cores):
+        return json.dumps({"event": "rate", "hz": self.rate.hz, "full_hz": ax12_headroom.FULL_HZ,
+                           "idle_cores": None if idle_cores is None else round(idle_cores, 2)})
+
+    async def pace(self, idle=None):
+        """Once a second while pages are open: the machine's idle CPU sets the update rate
+        (ax12_headroom); a change is subscribed to and told to every page. A page opened later
+        starts again from the busy rate."""
+        idle = idle or ax12_headroom.IdleCores()
+        while True:
+            await asyncio.sleep(1.0)
+            idle_cores = idle.reading()
+            if not self.pages:
+                self.rate = ax12_headroom.UpdateRate()
+                continue
+            before = self.rate.hz
+            if self.rate.update(idle_cores) != before:
+                log("%d updates a second (idle CPU: %s cores)" % (
+                    self.rate.hz, "unknown" if idle_cores is None else "%.2f" % idle_cores))
+                await self.subscribe()
+                for ws in list(self.pages):
+                    self.relay(ws, self.rate_event(idle_cores))
 
     def relay(self, ws, text):
         queue = self.pages.get(ws)
@@ -282,6 +309,7 @@ async def websocket(request):
     emu.monitoring[ws] = False  # until the page says its monitor is on screen
     if len(emu.pages) == 1:
         await emu.subscribe()
+    emu.relay(ws, emu.rate_event(None))
     sender = asyncio.ensure_future(send_queued(ws, queue))
     try:
         async for frame in ws:
@@ -358,8 +386,10 @@ async def serve(args):
         return 1
     print("listening http://%s:%d/" % (host if ":" not in host else "[%s]" % host, port), flush=True)
     charts = asyncio.ensure_future(emu.pump_charts(charts_reader))
+    pace = asyncio.ensure_future(emu.pace())
     await emu.pump_events(events_reader)  # until the emulator closes the socket
     charts.cancel()
+    pace.cancel()
     for ws in list(emu.pages):
         await ws.close()
     await runner.cleanup()

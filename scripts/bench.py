@@ -188,6 +188,29 @@ def dashboard_page(port_number, view="top"):
     return driver
 
 
+def page_updates_per_s(page):
+    """The updates the dashboard page drew in its last whole second (its header says so)."""
+    from selenium.webdriver.common.by import By
+    text = page.find_element(By.ID, "rate").text
+    m = re.match(r"(\d+) updates/s", text)
+    return int(m.group(1)) if m else float("nan")
+
+
+def dashboard_idle_rate(emu, fw):
+    """The page's updates a second on a 3-servo bus with no client: the machine has CPU to spare."""
+    port_number = free_tcp_port()
+    serve = Serve(emu, fw, "1-3", ["--dashboard", str(port_number)])
+    try:
+        page = dashboard_page(port_number, "charts")
+        try:
+            time.sleep(8)  # the busy rate first, the full one once the machine is seen idle
+            return page_updates_per_s(page)
+        finally:
+            page.quit()
+    finally:
+        serve.stop()
+
+
 def free_tcp_port():
     import socket
     with socket.socket() as s:
@@ -241,12 +264,13 @@ def sdk_client_loop(emu, firmware_dir, servos, seconds, adapter=DEFAULT_ADAPTER,
                 position, result = 0, -1
             reached += result == 0 and abs(position - goals[i]) <= 4
         port.closePort()
+        page_rate = page_updates_per_s(page) if page is not None else None
     finally:
         if page is not None:
             page.quit()
         stats = serve.stop()
     return {"loops_per_s": loops / elapsed, "read_failures": failures, "servos_at_goal": reached,
-            "rdt_us": 2.0 * rdt, **stats}
+            "rdt_us": 2.0 * rdt, "page_updates_per_s": page_rate, **stats}
 
 
 def sdk_loop_table(emu, fw, seconds, row, r):
@@ -295,9 +319,12 @@ def dashboard_cost(emu, fw, seconds, row):
     rate without (issue: at least 0.9)."""
     views = (None, "top", "charts")
     rates = {view: [] for view in views}
+    updates = {view: [] for view in views}
     for _ in range(3):
         for view in views:
-            rates[view].append(sdk_client_loop(emu, fw, 30, seconds, dashboard=view)["loops_per_s"])
+            loop = sdk_client_loop(emu, fw, 30, seconds, dashboard=view)
+            rates[view].append(loop["loops_per_s"])
+            updates[view].append(loop["page_updates_per_s"])
     without = statistics.mean(rates[None])
     row("dashboard", "30-servo SDK loop without the dashboard", without, "loops/s", "", "dashboard_loop_without")
     for view, what in (("top", "at its servo list"), ("charts", "scrolled to its charts")):
@@ -306,6 +333,10 @@ def dashboard_cost(emu, fw, seconds, row):
             "dashboard_loop_%s" % view)
         row("dashboard", "ratio, page %s / without (same run)" % what, with_page / without, "", ">= 0.9",
             "dashboard_loop_ratio_%s" % view)
+        row("dashboard", "page %s: updates drawn in the loop's last second (median)" % what,
+            statistics.median(updates[view]), "/s", "", "dashboard_updates_%s" % view)
+    row("dashboard", "page at its charts, 3 servos and no client: updates drawn a second", dashboard_idle_rate(emu, fw),
+        "/s", ">= 20", "dashboard_updates_idle")
 
 
 def bootloader_figures(emu, fw, build, row):

@@ -8,12 +8,14 @@ const HISTORY_S = 15;
 const MONITOR_ROWS = 300;       // rows on the page (the export takes every packet kept)
 const MONITOR_KEPT = 10000;     // packets kept
 const MONITOR_PERIOD_MS = 500;  // the monitor is redrawn at most this often
-const RENDER_PERIOD_MS = 100;   // the page is redrawn at most this often (whole events: every 200 ms)
+const RENDER_PERIOD_MS = 40;    // the page is redrawn at most this often (whole events: 20 or 5 a second)
 const state = {
   ws: null, items: [], servos: [], selected: null, history: new Map(), charts: [], profile: "ax12",
   packets: [], nextReq: 1, overview: null, overviewSlots: [], overviewHistory: null,
   streamSlot: null, // the servo whose points come in batches (20 a second): the selected one
   table: null,      // the selected servo's control table, as its last batch of points had it
+  rate: null,       // the server's update rate: { hz, full_hz, idle_cores }
+  frames: 0,        // frames drawn since the last second began (shown as updates a second)
 };
 
 const $ = (id) => document.getElementById(id);
@@ -195,6 +197,7 @@ function scheduleRender() {
 function render() {
   state.renderPending = false;
   state.lastRender = performance.now();
+  state.frames++;
   const event = state.lastEvent;
   if (event && state.eventDirty) {
     state.eventDirty = false;
@@ -458,6 +461,18 @@ function onPoints(batch) {
   if (shownVisible || onScreen.size) scheduleRender(); // else nothing of them is on screen
 }
 
+// Updates a second as drawn (frames in the last second), and why fewer when the server has
+// slowed the whole updates down because the machine has no CPU core to spare (docs/dashboard.md).
+function showRate() {
+  const drawn = `${state.frames} updates/s`;
+  state.frames = 0;
+  const r = state.rate;
+  const busy = r && r.hz < r.full_hz;
+  const why = r && r.idle_cores === null ? "while the machine's load is measured" : "no CPU core to spare, the bus comes first";
+  setText($("rate"), busy ? `${drawn} (${r.hz}/s: ${why})` : drawn);
+  $("rate").className = busy ? "bad" : "";
+}
+
 function setText(element, text) {
   if (element.textContent !== text) element.textContent = text;
 }
@@ -484,6 +499,7 @@ function connect() {
     else if (event.event === "telemetry") onTelemetry(event);
     else if (event.event === "packets") addPackets(event.packets);
     else if (event.event === "result") say(event.message, event.ok);
+    else if (event.event === "rate") state.rate = event;
   };
 }
 
@@ -520,6 +536,7 @@ async function start() {
   });
   sections.observe($("servos"));
   sections.observe($("selected"));
+  setInterval(showRate, 1000);
   connect();
 }
 

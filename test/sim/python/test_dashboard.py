@@ -8,6 +8,9 @@ import socket
 import time
 import urllib.request
 
+import subprocess
+import sys
+
 import dynamixel_sdk as sdk
 import pytest
 from selenium import webdriver
@@ -15,6 +18,7 @@ from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select
 
+import ax12_headroom as H
 import ax12_table as T
 
 ARTIFACTS = os.environ.get("AX12_ARTIFACT_DIR") or os.path.join(os.getcwd(), "test-artifacts")
@@ -104,6 +108,45 @@ def monitor_rows(driver):
         "return [...document.querySelectorAll('#monitor tbody tr')].map(r => [...r.cells].map(c => c.textContent));")
 
 
+def stat(busy, idle, cpus=2):
+    """A /proc/stat text: the totals line, then one line per CPU."""
+    user, system = busy // 2, busy - busy // 2
+    lines = ["cpu  %d 0 %d %d 0 0 0 0 0 0" % (user, system, idle)]
+    lines += ["cpu%d 1 0 1 1 0 0 0 0 0 0" % i for i in range(cpus)]
+    return "\n".join(lines + ["intr 1 2 3", "ctxt 4"]) + "\n"
+
+
+def test_idle_cores_come_from_proc_stat():
+    assert H.cpu_times("cpu  10 2 3 40 5 1 1 0 7 0\ncpu0 1 1 1 1\n") == (17, 45)
+    readings = iter([stat(100, 100), stat(150, 250), stat(350, 250)])
+    idle = H.IdleCores(lambda: next(readings))
+    assert idle.reading() is None             # the first reading has nothing to compare with
+    assert idle.reading() == pytest.approx(1.5)  # 150 of 200 jiffies idle, on 2 CPUs
+    assert idle.reading() == 0.0              # every jiffy busy
+    assert H.IdleCores(lambda: "not proc stat").reading() is None
+
+    def missing():
+        raise OSError("no /proc")
+    assert H.IdleCores(missing).reading() is None
+
+
+def test_the_update_rate_steps_back_while_the_machine_has_no_core_to_spare():
+    rate = H.UpdateRate()
+    assert rate.hz == H.BUSY_HZ  # a page opened on a busy machine does not cost it the full rate
+    assert [rate.update(1.5) for _ in range(H.UP_AFTER_S)][-1] == H.FULL_HZ
+    assert rate.update(0.1) == H.FULL_HZ     # one busy second is not enough
+    assert rate.update(0.5) == H.FULL_HZ     # and the run starts again
+    assert [rate.update(0.1) for _ in range(H.DOWN_AFTER_S)][-1] == H.BUSY_HZ
+    assert rate.update(0.4) == H.BUSY_HZ     # the full rate's own cost must fit in what is idle
+    assert [rate.update(None) for _ in range(H.UP_AFTER_S)][-1] == H.FULL_HZ  # no /proc/stat: full
+
+
+def updates_drawn(driver):
+    """The page's header: updates drawn in the last second, and whether the server slowed them."""
+    text = driver.find_element(By.ID, "rate").text
+    return int(text.split()[0]) if text[:1].isdigit() else 0, "no CPU core to spare" in text
+
+
 def test_the_dashboard_shows_edits_and_changes_the_world_of_a_live_bus(emulator, browser, downloads, tmp_path):
     port_number = free_port()
     emu = emulator("--realtime", "--ids", "1-3", "--state-dir", str(tmp_path), "--dashboard", str(port_number))
@@ -113,6 +156,23 @@ def test_the_dashboard_shows_edits_and_changes_the_world_of_a_live_bus(emulator,
         browser.get(url)
         wait_for(lambda: browser.find_element(By.ID, "connection").text == "live", 15, "the page to go live")
         wait_for(lambda: cell(browser, 3, 1) == "3", 10, "servo 3 in the list")
+
+        # Live: 20 updates a second while the machine has a core to spare; 5 while every core is
+        # busy (here: one spinning process per core), and 20 again once they stop.
+        def full_rate():
+            drawn, slowed = updates_drawn(browser)
+            return drawn >= 18 and not slowed
+        wait_for(full_rate, 15, "20 updates a second")
+        spinners = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(os.cpu_count() or 2)]
+        try:
+            wait_for(lambda: updates_drawn(browser)[1], 15, "the page slowed down on a busy machine")
+            time.sleep(1.5)
+            assert updates_drawn(browser)[0] <= H.BUSY_HZ + 1
+        finally:
+            for spinner in spinners:
+                spinner.kill()
+                spinner.wait()
+        wait_for(full_rate, 15, "20 updates a second again")
 
         # A goal written through DynamixelSDK moves the servo on the page.
         assert retried(handler.write1ByteTxRx, port, 2, T.TORQUE_ENABLE, 1) == (sdk.COMM_SUCCESS, 0)
