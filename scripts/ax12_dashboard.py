@@ -176,8 +176,8 @@ class Emulator:
 
     async def pace(self, idle=None):
         """Once a second while pages are open: the machine's idle CPU sets the update rate
-        (ax12_headroom); a change is subscribed to and told to every page. A page opened later
-        starts again from the busy rate."""
+        (ax12_headroom); a change is subscribed to; every page is told the rate and the reading.
+        A page opened later starts again from the busy rate."""
         idle = idle or ax12_headroom.IdleCores()
         while True:
             await asyncio.sleep(1.0)
@@ -190,8 +190,8 @@ class Emulator:
                 log("%d updates a second (idle CPU: %s cores)" % (
                     self.rate.hz, "unknown" if idle_cores is None else "%.2f" % idle_cores))
                 await self.subscribe()
-                for ws in list(self.pages):
-                    self.relay(ws, self.rate_event(idle_cores))
+            for ws in list(self.pages):
+                self.relay(ws, self.rate_event(idle_cores))
 
     def relay(self, ws, text):
         queue = self.pages.get(ws)
