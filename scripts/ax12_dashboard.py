@@ -177,13 +177,12 @@ class Emulator:
     async def pace(self, idle=None):
         """Once a second while pages are open: the machine's idle CPU sets the update rate
         (ax12_headroom); a change is subscribed to; every page is told the rate and the reading.
-        A page opened later starts again from the busy rate."""
+        The machine is read even while no page is open, so a page's first second has a reading."""
         idle = idle or ax12_headroom.IdleCores()
         while True:
             await asyncio.sleep(1.0)
             idle_cores = idle.reading()
             if not self.pages:
-                self.rate = ax12_headroom.UpdateRate()
                 continue
             before = self.rate.hz
             if self.rate.update(idle_cores) != before:
@@ -337,6 +336,7 @@ async def websocket(request):
         emu.points.pop(ws, None)
         sender.cancel()
         if not emu.pages:
+            emu.rate = ax12_headroom.UpdateRate()  # the next page starts again from the busy rate
             await emu.subscribe()
     return ws
 

@@ -5,11 +5,10 @@ same time. Screenshots are kept in $AX12_ARTIFACT_DIR (build/test-artifacts)."""
 import os
 import shutil
 import socket
-import time
-import urllib.request
-
 import subprocess
 import sys
+import time
+import urllib.request
 
 import dynamixel_sdk as sdk
 import pytest
