@@ -4,7 +4,8 @@
  * STACK_PAINT_BYTE at reset). The workload: every instruction, a full-table READ, a
  * SYNC_WRITE addressed to 30 servos, error cases, EEPROM writes and RESET, and the control
  * loop driving the motor. Prints the figure; fails if the paint was used up or the workload
- * did not run. */
+ * did not run, and, on the ATmega88, if static RAM plus the deepest stack plus what a nested
+ * interrupt may add passes RAM_BUDGET_ATMEGA88_BYTES. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -68,6 +69,13 @@ static void workload(harness_t *h) {
  * is a separate test in test_servo.c.) */
 #define WORKLOAD_BAUD 34u
 
+/* The ATmega88's RAM budget: static RAM (.data + .bss + .noinit) + deepest stack, at most
+ * 768 of its 1024 B, the rest kept for what comes next. NESTING_MARGIN_BYTES is what an
+ * interrupt nested in TIMER1_COMPB can add to the measured depth (docs/firmware.md "Build":
+ * COMPB's 5 B frame and at most 9 B for the nested ISR). */
+#define RAM_BUDGET_ATMEGA88_BYTES 768u
+#define NESTING_MARGIN_BYTES 14u
+
 static void measure(const char *profile, const char *mcu) {
   harness_t h;
   harness_open(&h, profile, mcu, WORKLOAD_BAUD);
@@ -84,6 +92,12 @@ static void measure(const char *profile, const char *mcu) {
          profile, mcu, depth, free_bytes, statics_end, ramend, free_bytes - depth);
   assert_true(depth > 0);
   assert_true(depth < free_bytes); /* some paint is left: the stack did not reach .bss */
+  const unsigned static_bytes = statics_end - (servo->avr->ioend + 1u); /* SRAM starts after the I/O space */
+  printf("RAM (%s, %s): %u B static + %u B deepest stack + %u B nesting margin = %u B\n", profile, mcu,
+         static_bytes, depth, NESTING_MARGIN_BYTES, static_bytes + depth + NESTING_MARGIN_BYTES);
+  if (strcmp(mcu, "atmega88") == 0) {
+    assert_true(static_bytes + depth + NESTING_MARGIN_BYTES <= RAM_BUDGET_ATMEGA88_BYTES);
+  }
   harness_close(&h);
 }
 
