@@ -443,6 +443,13 @@ def host_cost_figure(bench, elf, row):
         "instructions", "no higher than before", "host_instructions_per_servo_s_30")
 
 
+def firmware_figures(bench, elf, quick, row, r):
+    """Size, reply timing, sustained load and host cost of one ATmega88 application ELF."""
+    size_figures(bench, elf, "atmega88", row)
+    reply_and_load_figures(bench, elf, quick, row, r)
+    host_cost_figure(bench, elf, row)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--build", required=True)
@@ -456,7 +463,9 @@ def main():
                     help="only the bootloader's size and the time of an update over the bus")
     ap.add_argument("--firmware-only", action="store_true",
                     help="only the ATmega88 application's size, reply timing, sustained load and host cost")
-    ap.add_argument("--elf", help="with --firmware-only: this ATmega88 ELF instead of the build's (a before/after)")
+    ap.add_argument("--elf", help="with --firmware-only: this ATmega88 ELF instead of the build's")
+    ap.add_argument("--before-elf", help="with --firmware-only: measure this ATmega88 ELF too, in the same run, and "
+                    "print its figures beside the other's (bench.json: its keys prefixed before_)")
     a = ap.parse_args()
     ax12_build.use(a.build)
     fw = os.path.join(a.build, "firmware")
@@ -483,13 +492,27 @@ def main():
 
     if a.firmware_only:
         elf = a.elf or elf
-        size_figures(bench, elf, "atmega88", row)
-        reply_and_load_figures(bench, elf, a.quick, row, r)
-        host_cost_figure(bench, elf, row)
-        print("figures of %s" % elf)
-        for _, name, value, unit, goal in rows:
-            text = ("%.3f" % value) if isinstance(value, float) else str(value)
-            print("  %-58s %14s  %-12s %s" % (name, text, unit, goal))
+        firmware_figures(bench, elf, a.quick, row, r)
+        columns = [rows]
+        if a.before_elf:
+            before_rows, before_r = [], {}
+
+            def before_row(section, name, value, unit, goal="", key=None):
+                before_rows.append((section, name, value, unit, goal))
+                if key:
+                    before_r[key] = value
+
+            firmware_figures(bench, a.before_elf, a.quick, before_row, before_r)
+            r.update(("before_" + key, value) for key, value in before_r.items())
+            columns.insert(0, before_rows)
+            print("before: %s\nafter:  %s" % (a.before_elf, elf))
+            print("  %-58s %14s  %14s  %-12s %s" % ("figure", "before", "after", "unit", "goal"))
+        else:
+            print("figures of %s" % elf)
+        for cells in zip(*columns):
+            _, name, _, unit, goal = cells[-1]
+            texts = ["%14s" % (("%.3f" % c[2]) if isinstance(c[2], float) else str(c[2])) for c in cells]
+            print("  %-58s %s  %-12s %s" % (name, "  ".join(texts), unit, goal))
         with open(a.out, "w") as f:
             json.dump(r, f, indent=1, sort_keys=True)
         print("\nbench: wrote %s" % a.out)
