@@ -21,6 +21,7 @@
 #include "board.h"
 #include "control.h"
 #include "dxl_link.h"
+#include "dxl_link_port.h"
 #include "dxl_servo.h"
 #include "motor.h"
 #include "nvm.h"
@@ -119,13 +120,14 @@ static void service_tick(void) {
 
 /* The watchdog (docs/firmware.md "Watchdog"), fed here in the main loop only when, since the
  * last feed, a control tick has run and the receive path has taken bytes from the ring or has
- * none waiting: a hang of the loop, of the tick or of the receive path starves it, and 250 ms
- * later the MCU resets. (Bytes wait legitimately while the sniff holds a packet or a reply is
- * on the wire: at the slowest baud at most about 130 ms.) */
+ * none waiting (the ring's tail and head as the link layer reads them, dxl_link_port.h): a hang
+ * of the loop, of the tick or of the receive path starves it, and 250 ms later the MCU resets.
+ * (Bytes wait legitimately while the sniff holds a packet or a reply is on the wire: at the
+ * slowest baud at most about 130 ms.) */
 static void feed_watchdog(void) {
   const uint16_t ticks = control_tick_count;
-  const uint8_t tail = uart_rx_tail;
-  if (ticks != fed_tick_count && (tail != fed_rx_tail || tail == uart_rx_head)) {
+  const uint8_t tail = dxl_link_port_rx_tail(NULL);
+  if (ticks != fed_tick_count && (tail != fed_rx_tail || tail == dxl_link_port_rx_head(NULL))) {
     fed_tick_count = ticks;
     fed_rx_tail = tail;
     board_watchdog_kick();

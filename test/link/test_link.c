@@ -1,9 +1,11 @@
 /* The link layer (firmware/link/dxl_link.h) on the host, on a fake UART (test/support/fake_uart.h):
- * every reply path, the Return Delay Time each reply is due at, one reply at a time, what
- * follows a reply and in which order (a store at the commit, RESET's defaults and a new baud
- * after the reply has left), garbage and other servos' packets between ours, and the armed
- * path of the RX interrupt's sniff with the fake playing the interrupt. Built once per
- * behaviour profile. Bytes arrive 10 us apart (1 Mbps). */
+ * every reply path and which Status Return Level answers it, a broadcast PING per profile,
+ * the Return Delay Time each reply is due at, one reply at a time, what follows a reply and in
+ * which order (a store at the commit, RESET's defaults and a new baud after the reply has
+ * left), garbage and other servos' packets between ours, the ready PING reply's error byte,
+ * and the RX interrupt's sniff with the fake playing the interrupt: the armed path, another
+ * servo's packet skipped, a header or a skip that stops ended by the 100 ms gap. Built once per
+ * behaviour profile (DXL_PROFILE). Bytes arrive 10 us apart (1 Mbps). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -23,20 +25,42 @@
 #define BYTE_US 10u
 #define FACTORY_ID 1u
 #define FACTORY_RDT_US 500u /* Return Delay Time 250 x 2 us */
+#define PACKET_OFS_ID 2u
+#define PACKET_OFS_LENGTH 3u
+#define PACKET_OFS_INSTRUCTION 4u
+#define UNKNOWN_INSTRUCTION 0x55u /* no instruction of the AX-12 */
+/* docs/policy.md "Replies": the AX-12 answers a broadcast PING, the AX-12A does not. */
+#define BROADCAST_PING_ANSWERED (DXL_PROFILE == DXL_PROFILE_AX12)
 
 typedef struct {
   dxl_servo_t servo;
   dxl_link_t link;
   fake_uart_t uart;
+  unsigned handled_count; /* packets the link has handled (dxl_link_port_handled) */
+  uint8_t handled_id;     /* the last one's ID and instruction */
+  uint8_t handled_instruction;
 } rig_t;
 
 static rig_t rig;
+
+static void record_handled(void *context, dxl_find_result_t found, const uint8_t *bytes, uint16_t length,
+                           const dxl_response_t *response) {
+  (void)found;
+  (void)length;
+  (void)response;
+  rig_t *handled_by = context;
+  handled_by->handled_count++;
+  handled_by->handled_id = bytes[PACKET_OFS_ID];
+  handled_by->handled_instruction = bytes[PACKET_OFS_INSTRUCTION];
+}
 
 static void rig_up(bool sniff) {
   memset(&rig, 0, sizeof rig);
   dxl_servo_power_up(&rig.servo, NULL, 512); /* factory defaults */
   fake_uart_init(&rig.uart, rig.servo.table[CT_ADDR_BAUD_RATE]);
   rig.uart.sniff_enabled = sniff;
+  rig.uart.on_handled = record_handled;
+  rig.uart.context = &rig;
   rig.uart.now_us = 1000000u;
   dxl_link_init(&rig.link, &rig.servo, &rig.uart);
 }
@@ -87,6 +111,15 @@ static void assert_log(const char *expected) {
 }
 
 static void clear_log(void) { rig.uart.log[0] = '\0'; }
+
+/* count milliseconds of the link's clock: a tick each, then main-loop passes. */
+static void tick_ms(unsigned count) {
+  for (unsigned ms = 0; ms < count; ms++) {
+    rig.uart.now_us += 1000u;
+    dxl_link_tick(&rig.link, &rig.servo, dxl_link_port_now_ms(&rig.uart));
+    run();
+  }
+}
 
 static void write_byte(uint8_t addr, uint8_t value) {
   const uint8_t params[] = {addr, value};
@@ -217,29 +250,49 @@ static void test_a_broadcast_write_is_applied_without_a_reply(void **state) {
   assert_int_equal(rig.servo.table[CT_ADDR_LED], 1);
 }
 
-static void test_each_status_return_level_answers_what_it_says(void **state) {
+static void test_each_status_return_level_answers_each_instruction_as_the_policy_says(void **state) {
   (void)state;
-  /* level: answers PING, READ, WRITE */
-  static const bool answers[3][3] = {{true, false, false}, {true, true, false}, {true, true, true}};
+  /* docs/policy.md "Replies": level 0 answers PING only, 1 PING and READ, 2 everything sent to
+   * this servo; a SYNC_WRITE is broadcast and never answered. Answered or not, each packet
+   * does its work: after it, table[addr] == value. */
+  const uint8_t led_on[] = {CT_ADDR_LED, 1};
+  const uint8_t goal_256[] = {CT_ADDR_GOAL_POSITION, 0x00, 0x01};
+  const uint8_t sync_led_off[] = {CT_ADDR_LED, 1, FACTORY_ID, 0};
+  const uint8_t never = 3; /* no level answers it */
+  const struct {
+    uint8_t id;
+    uint8_t instruction;
+    const uint8_t *params;
+    size_t count;
+    uint8_t lowest_level_answered;
+    uint8_t error;
+    uint8_t addr;
+    uint8_t value;
+  } packets[] = {
+      {FACTORY_ID, DXL_INST_PING, NULL, 0, 0, 0, CT_ADDR_LED, 0},
+      {FACTORY_ID, DXL_INST_READ, led_on, sizeof led_on, 1, 0, CT_ADDR_LED, 0},
+      {FACTORY_ID, DXL_INST_WRITE, led_on, sizeof led_on, 2, 0, CT_ADDR_LED, 1},
+      {FACTORY_ID, DXL_INST_REG_WRITE, goal_256, sizeof goal_256, 2, 0, CT_ADDR_REGISTERED_INSTRUCTION, 1},
+      {FACTORY_ID, DXL_INST_ACTION, NULL, 0, 2, 0, CT_ADDR_GOAL_POSITION + 1, 0x01},
+      {DXL_ID_BROADCAST, DXL_INST_SYNC_WRITE, sync_led_off, sizeof sync_led_off, never, 0, CT_ADDR_LED, 0},
+      {FACTORY_ID, UNKNOWN_INSTRUCTION, NULL, 0, 2, DXL_ERR_INSTRUCTION, CT_ADDR_LED, 0},
+      {FACTORY_ID, DXL_INST_RESET, NULL, 0, 2, 0, CT_ADDR_STATUS_RETURN_LEVEL, 2}, /* the defaults */
+  };
   for (uint8_t level = 0; level < 3; level++) {
     rig_up(false);
     write_byte(CT_ADDR_STATUS_RETURN_LEVEL, level);
-    const uint8_t read[] = {CT_ADDR_LED, 1};
-    const uint8_t write[] = {CT_ADDR_LED, 1};
-    const struct {
-      uint8_t instruction;
-      const uint8_t *params;
-      size_t count;
-    } packets[] = {{DXL_INST_PING, NULL, 0}, {DXL_INST_READ, read, 2}, {DXL_INST_WRITE, write, 2}};
-    for (size_t i = 0; i < 3; i++) {
-      send(FACTORY_ID, packets[i].instruction, packets[i].params, packets[i].count);
+    for (size_t i = 0; i < sizeof packets / sizeof packets[0]; i++) {
+      send(packets[i].id, packets[i].instruction, packets[i].params, packets[i].count);
+      assert_int_equal(rig.handled_count, i + 2u); /* write_byte's packet first */
       const bool replied = rig.uart.reply_state == DXL_LINK_REPLY_SENDING;
-      assert_int_equal(replied, answers[level][i]);
+      assert_int_equal(replied, level >= packets[i].lowest_level_answered);
       if (replied) {
+        assert_int_equal(rig.uart.reply_start_us - rig.uart.newest_rx_us, FACTORY_RDT_US);
+        assert_int_equal(rig.uart.reply_bytes[DXL_STATUS_ERROR_OFFSET], packets[i].error);
         sent();
       }
+      assert_int_equal(rig.servo.table[packets[i].addr], packets[i].value);
     }
-    assert_int_equal(rig.servo.table[CT_ADDR_LED], 1); /* the silent WRITE still applied */
   }
 }
 
@@ -379,11 +432,7 @@ static void test_an_armed_packet_whose_checksum_never_comes_is_given_up(void **s
   rig_up(true);
   const uint8_t params[] = {CT_ADDR_LED, 1};
   (void)arrive_up_to_checksum(DXL_INST_WRITE, params, sizeof params);
-  for (unsigned ms = 0; ms < DXL_LINK_SNIFF_MAX_MS + 1u; ms++) {
-    rig.uart.now_us += 1000u;
-    dxl_link_tick(&rig.link, &rig.servo, dxl_link_port_now_ms(&rig.uart));
-    run();
-  }
+  tick_ms(DXL_LINK_SNIFF_MAX_MS + 1u);
   assert_int_equal(rig.uart.reply_state, DXL_LINK_REPLY_IDLE); /* disarmed */
   assert_int_equal(rig.servo.table[CT_ADDR_LED], 0);
   rig.uart.now_us += 150000u; /* the gap ends the partial packet */
@@ -394,6 +443,233 @@ static void test_an_armed_packet_whose_checksum_never_comes_is_given_up(void **s
   arrive_armed(DXL_INST_PING, NULL, 0, true); /* and the next packet is armed again */
   assert_reply(0, NULL, 0);
   sent();
+}
+
+static void test_the_armed_path_asks_the_delay_of_every_return_delay_time(void **state) {
+  (void)state;
+  rig_up(true);
+  static const uint8_t delays[] = {0, 1, 2, 5, 6, 100, 254};
+  uint8_t in_force = 250; /* the factory's */
+  for (size_t i = 0; i < sizeof delays; i++) {
+    const uint8_t write[] = {CT_ADDR_RETURN_DELAY_TIME, delays[i]};
+    arrive_armed(DXL_INST_WRITE, write, sizeof write, true);
+    assert_int_equal(rig.uart.reply_delay_us, 2u * in_force); /* answered at the old delay */
+    assert_int_equal(rig.uart.reply_start_us - rig.uart.newest_rx_us, 2u * in_force);
+    sent();
+    in_force = delays[i];
+    arrive_armed(DXL_INST_PING, NULL, 0, true);
+    assert_int_equal(rig.uart.reply_delay_us, 2u * in_force);
+    assert_int_equal(rig.uart.reply_start_us - rig.uart.newest_rx_us, 2u * in_force);
+    sent();
+    const uint8_t read[] = {CT_ADDR_RETURN_DELAY_TIME, 1};
+    arrive_armed(DXL_INST_READ, read, sizeof read, true);
+    assert_reply(0, &in_force, 1);
+    assert_int_equal(rig.uart.reply_delay_us, 2u * in_force);
+    assert_int_equal(rig.uart.reply_start_us - rig.uart.newest_rx_us, 2u * in_force);
+    sent();
+  }
+}
+
+static void test_an_action_to_this_servo_is_answered_after_a_registered_write(void **state) {
+  (void)state;
+  const uint8_t led_on[] = {CT_ADDR_LED, 1};
+  /* Without the sniff: answered from the main loop. */
+  rig_up(false);
+  send(FACTORY_ID, DXL_INST_REG_WRITE, led_on, sizeof led_on);
+  sent();
+  clear_log();
+  send(FACTORY_ID, DXL_INST_ACTION, NULL, 0);
+  assert_log("reply+500 ");
+  assert_reply(0, NULL, 0);
+  assert_int_equal(rig.servo.table[CT_ADDR_LED], 1);
+  assert_int_equal(rig.servo.table[CT_ADDR_REGISTERED_INSTRUCTION], 0);
+  sent();
+  /* Armed: its reply published before its checksum, the registered write applied after it. */
+  rig_up(true);
+  arrive_armed(DXL_INST_REG_WRITE, led_on, sizeof led_on, true);
+  sent();
+  clear_log();
+  const uint8_t checksum = arrive_up_to_checksum(DXL_INST_ACTION, NULL, 0);
+  assert_reply(0, NULL, 0);
+  assert_int_equal(fake_uart_reply_ready(&rig.uart), rig.uart.reply_length);
+  assert_int_equal(rig.servo.table[CT_ADDR_LED], 0);
+  rig.uart.now_us += BYTE_US;
+  fake_uart_checksum(&rig.uart, checksum, true);
+  run();
+  assert_log("armed start ");
+  assert_int_equal(rig.servo.table[CT_ADDR_LED], 1);
+  assert_int_equal(rig.servo.table[CT_ADDR_REGISTERED_INSTRUCTION], 0);
+  sent();
+}
+
+/* A packet the sniff keeps and does not arm (broadcast, or this servo's with an instruction it
+ * does not arm), played as the RX interrupt: its header held in the sniff's state up to the
+ * LENGTH, then held in the ring, and handed over to the finder at its checksum. */
+static void arrive_handed_over(uint8_t id, uint8_t instruction, const uint8_t *params, size_t count) {
+  uint8_t packet[DXL_PACKET_MAX_BYTES];
+  const size_t length = packet_encode(packet, id, instruction, params, count);
+  assert_int_equal(rig.uart.sniff, DXL_LINK_SNIFF_WAITING);
+  for (size_t i = 0; i < length; i++) {
+    rig.uart.now_us += BYTE_US;
+    if (i < PACKET_OFS_LENGTH) {
+      fake_uart_sniff_header(&rig.uart);
+    } else if (i == PACKET_OFS_LENGTH) {
+      fake_uart_sniff_keep(&rig.uart, packet);
+    } else if (i + 1 < length) {
+      assert_true(fake_uart_receive(&rig.uart, packet[i]));
+    } else {
+      fake_uart_sniff_hand_over(&rig.uart, packet[i]);
+    }
+    run();
+  }
+}
+
+static void test_a_broadcast_ping_is_answered_in_profile_ax12_only(void **state) {
+  (void)state;
+  for (int sniff = 0; sniff < 2; sniff++) {
+    rig_up(sniff != 0);
+    if (sniff) {
+      arrive_handed_over(DXL_ID_BROADCAST, DXL_INST_PING, NULL, 0);
+    } else {
+      send(DXL_ID_BROADCAST, DXL_INST_PING, NULL, 0);
+    }
+    assert_int_equal(rig.handled_count, 1);
+    assert_int_equal(rig.handled_id, DXL_ID_BROADCAST);
+    if (BROADCAST_PING_ANSWERED) {
+      assert_log("reply+500 ");
+      assert_reply(0, NULL, 0); /* with this servo's ID */
+      sent();
+    } else {
+      assert_log("");
+      assert_int_equal(rig.uart.reply_state, DXL_LINK_REPLY_IDLE);
+    }
+    /* This servo's PING next, answered with the ready reply at the Return Delay Time. */
+    clear_log();
+    if (sniff) {
+      arrive_armed(DXL_INST_PING, NULL, 0, true);
+      assert_log("armed start ");
+    } else {
+      send(FACTORY_ID, DXL_INST_PING, NULL, 0);
+      assert_log("reply+500 ");
+    }
+    assert_reply(0, NULL, 0);
+    assert_int_equal(rig.uart.reply_delay_us, FACTORY_RDT_US);
+    sent();
+  }
+}
+
+static void test_the_ready_ping_reply_is_rebuilt_when_its_error_byte_would_change(void **state) {
+  (void)state;
+  rig_up(true);
+  /* The control tick's conditions, reported after every tick: unchanged, nothing is rebuilt. */
+  const unsigned loads = rig.uart.reply_load_count;
+  dxl_link_conditions_changed(&rig.link, &rig.servo, dxl_servo_conditions(&rig.servo));
+  assert_int_equal(rig.uart.reply_load_count, loads);
+  /* A held condition appears: the ready reply carries it from the next PING on. */
+  rig.servo.held_conditions = DXL_ERR_OVERHEATING;
+  dxl_link_conditions_changed(&rig.link, &rig.servo, dxl_servo_conditions(&rig.servo));
+  assert_int_equal(rig.uart.reply_load_count, loads + 1u);
+  assert_reply(DXL_ERR_OVERHEATING, NULL, 0);
+  dxl_link_conditions_changed(&rig.link, &rig.servo, dxl_servo_conditions(&rig.servo));
+  assert_int_equal(rig.uart.reply_load_count, loads + 1u);
+  arrive_armed(DXL_INST_PING, NULL, 0, true);
+  assert_reply(DXL_ERR_OVERHEATING, NULL, 0);
+  sent();
+  /* It clears while a reply is on the wire: the reply's bytes stay as they are, the ready
+   * reply is rebuilt once it has left. */
+  const uint8_t read[] = {CT_ADDR_ID, 1};
+  const uint8_t id[] = {FACTORY_ID};
+  arrive_armed(DXL_INST_READ, read, sizeof read, true);
+  rig.servo.held_conditions = 0;
+  dxl_link_conditions_changed(&rig.link, &rig.servo, dxl_servo_conditions(&rig.servo));
+  assert_reply(DXL_ERR_OVERHEATING, id, sizeof id);
+  sent();
+  assert_reply(0, NULL, 0);
+  arrive_armed(DXL_INST_PING, NULL, 0, true);
+  assert_reply(0, NULL, 0);
+  sent();
+}
+
+/* Another servo's bytes come this far apart: the whole packet takes longer than the 100 ms
+ * gap, each gap between its bytes is shorter, so it is one packet (docs/policy.md "Framing and
+ * bus"). */
+#define SLOW_BYTE_MS 30u
+
+/* The first arriving bytes of another servo's packet with the sniff on, played as the RX
+ * interrupt: its header held in the sniff's state, its LENGTH starting the skip, which forgets
+ * the bytes after it. The bytes come SLOW_BYTE_MS apart, the millisecond clock ticking. */
+static void arrive_for_another_servo(const uint8_t *packet, size_t arriving) {
+  for (size_t i = 0; i < arriving; i++) {
+    tick_ms(SLOW_BYTE_MS);
+    if (i < PACKET_OFS_LENGTH) {
+      fake_uart_sniff_header(&rig.uart);
+    } else if (i == PACKET_OFS_LENGTH) {
+      fake_uart_sniff_skip(&rig.uart, packet[i]);
+    } else {
+      assert_true(fake_uart_receive(&rig.uart, packet[i]));
+    }
+    run();
+  }
+}
+
+static void test_the_sniff_skips_another_servos_packet_between_two_of_ours(void **state) {
+  (void)state;
+  rig_up(true);
+  arrive_armed(DXL_INST_PING, NULL, 0, true);
+  sent();
+  const uint8_t head = rig.uart.head;
+  const uint64_t taken = rig.uart.taken_count;
+  uint8_t packet[DXL_PACKET_MAX_BYTES];
+  const uint8_t led_on[] = {CT_ADDR_LED, 1};
+  const size_t length = packet_encode(packet, 2, DXL_INST_WRITE, led_on, sizeof led_on);
+  assert_true(length * SLOW_BYTE_MS > DXL_PACKET_GAP_TIMEOUT_MS);
+  arrive_for_another_servo(packet, length);
+  assert_int_equal(rig.uart.skip, 0);
+  assert_int_equal(rig.uart.sniff, DXL_LINK_SNIFF_WAITING);
+  assert_int_equal(rig.uart.head, head); /* none of its bytes in the ring, */
+  assert_int_equal(rig.uart.taken_count, taken); /* none taken into the finder */
+  assert_true(dxl_finder_idle(&rig.link.finder));
+  assert_int_equal(rig.handled_count, 1);
+  assert_int_equal(rig.uart.reply_state, DXL_LINK_REPLY_IDLE);
+  assert_int_equal(rig.servo.table[CT_ADDR_LED], 0);
+  clear_log();
+  const uint8_t read[] = {CT_ADDR_ID, 1};
+  const uint8_t id[] = {FACTORY_ID};
+  arrive_armed(DXL_INST_READ, read, sizeof read, true);
+  assert_log("armed start ");
+  assert_reply(0, id, sizeof id);
+  assert_int_equal(rig.handled_count, 2);
+  assert_int_equal(rig.handled_instruction, DXL_INST_READ);
+  assert_int_equal(rig.uart.taken_count, taken + PACKET_OVERHEAD + sizeof read); /* ours alone */
+  sent();
+}
+
+static void test_a_header_or_a_skip_that_stops_ends_after_the_gap(void **state) {
+  (void)state;
+  uint8_t packet[DXL_PACKET_MAX_BYTES];
+  const uint8_t led_on[] = {CT_ADDR_LED, 1};
+  (void)packet_encode(packet, 2, DXL_INST_WRITE, led_on, sizeof led_on);
+  /* FF, FF FF, FF FF ID: a header part-way; FF FF ID LENGTH, alone and with 2 of the 4 bytes
+   * it counts: a skip. */
+  static const size_t arriving[] = {1, 2, 3, 4, 6};
+  for (size_t i = 0; i < sizeof arriving / sizeof arriving[0]; i++) {
+    rig_up(true);
+    arrive_for_another_servo(packet, arriving[i]);
+    const uint8_t sniff = rig.uart.sniff;
+    const uint8_t skip = rig.uart.skip;
+    assert_true(skip != 0 || (sniff != DXL_LINK_SNIFF_WAITING && sniff <= DXL_LINK_SNIFF_LENGTH));
+    tick_ms(DXL_PACKET_GAP_TIMEOUT_MS); /* a byte now would still be the packet's */
+    assert_int_equal(rig.uart.sniff, sniff);
+    assert_int_equal(rig.uart.skip, skip);
+    tick_ms(2); /* more than the gap: dropped */
+    assert_int_equal(rig.uart.sniff, DXL_LINK_SNIFF_WAITING);
+    assert_int_equal(rig.uart.skip, 0);
+    arrive_armed(DXL_INST_PING, NULL, 0, true); /* the next packet is answered */
+    assert_reply(0, NULL, 0);
+    assert_int_equal(rig.handled_count, 1);
+    assert_int_equal(rig.handled_instruction, DXL_INST_PING);
+    sent();
+  }
 }
 
 int main(void) {
@@ -408,7 +684,7 @@ int main(void) {
       cmocka_unit_test(test_a_new_baud_applies_after_the_reply),
       cmocka_unit_test(test_a_sync_write_is_applied_without_a_reply),
       cmocka_unit_test(test_a_broadcast_write_is_applied_without_a_reply),
-      cmocka_unit_test(test_each_status_return_level_answers_what_it_says),
+      cmocka_unit_test(test_each_status_return_level_answers_each_instruction_as_the_policy_says),
       cmocka_unit_test(test_a_bad_checksum_gets_a_checksum_error),
       cmocka_unit_test(test_garbage_and_other_servos_packets_between_ours_are_passed_over),
       cmocka_unit_test(test_packets_that_come_during_a_reply_wait_for_its_end),
@@ -417,6 +693,12 @@ int main(void) {
       cmocka_unit_test(test_an_armed_eeprom_write_is_stored_after_its_checksum),
       cmocka_unit_test(test_an_armed_packet_with_a_bad_checksum_is_answered_from_the_finder),
       cmocka_unit_test(test_an_armed_packet_whose_checksum_never_comes_is_given_up),
+      cmocka_unit_test(test_the_armed_path_asks_the_delay_of_every_return_delay_time),
+      cmocka_unit_test(test_an_action_to_this_servo_is_answered_after_a_registered_write),
+      cmocka_unit_test(test_a_broadcast_ping_is_answered_in_profile_ax12_only),
+      cmocka_unit_test(test_the_ready_ping_reply_is_rebuilt_when_its_error_byte_would_change),
+      cmocka_unit_test(test_the_sniff_skips_another_servos_packet_between_two_of_ours),
+      cmocka_unit_test(test_a_header_or_a_skip_that_stops_ends_after_the_gap),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -23,6 +23,10 @@ void fake_uart_log(fake_uart_t *uart, const char *text) {
 }
 
 bool fake_uart_receive(fake_uart_t *uart, uint8_t byte) {
+  if (uart->skip != 0) {
+    uart->skip--;
+    return true;
+  }
   if ((uint8_t)(uart->head - uart->tail) == 0xFFu) {
     return false;
   }
@@ -58,6 +62,27 @@ void fake_uart_checksum(fake_uart_t *uart, uint8_t byte, bool matched) {
   } else {
     uart->reply_state = DXL_LINK_REPLY_IDLE;
   }
+}
+
+void fake_uart_sniff_header(fake_uart_t *uart) { uart->sniff++; }
+
+void fake_uart_sniff_skip(fake_uart_t *uart, uint8_t length) {
+  uart->skip = length;
+  uart->sniff = DXL_LINK_SNIFF_WAITING;
+}
+
+#define HEADER_BYTES 4u /* FF FF ID LENGTH */
+
+void fake_uart_sniff_keep(fake_uart_t *uart, const uint8_t *header) {
+  for (uint8_t i = 0; i < HEADER_BYTES; i++) {
+    (void)fake_uart_receive(uart, header[i]);
+  }
+  uart->sniff = DXL_LINK_SNIFF_LENGTH + 1u; /* past the header, holding the packet */
+}
+
+void fake_uart_sniff_hand_over(fake_uart_t *uart, uint8_t checksum) {
+  (void)fake_uart_receive(uart, checksum);
+  uart->sniff = DXL_LINK_SNIFF_OFF;
 }
 
 /* dxl_link_port.h */
@@ -113,6 +138,7 @@ void dxl_link_port_reply_load(void *port, const uint8_t *bytes, uint8_t length, 
   uart->reply_length = length;
   uart->reply_published = length;
   uart->reply_delay_us = delay_us;
+  uart->reply_load_count++;
 }
 
 void dxl_link_port_reply_start(void *port) {

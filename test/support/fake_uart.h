@@ -5,8 +5,8 @@
  * written to the event log in the order of the calls.
  *
  * The sniff is off (DXL_LINK_SNIFF_OFF) unless sniff_enabled: then dxl_link_port_sniff_start
- * sets it waiting, and the caller plays the RX interrupt (fake_uart_arm, fake_uart_checksum):
- * the fake frames nothing itself.
+ * sets it waiting, and the caller plays the RX interrupt (fake_uart_arm, fake_uart_checksum,
+ * fake_uart_sniff_*): the fake frames nothing itself.
  *
  * Time: now_us, set by the caller; a byte is stamped with it on arrival, and a reply started
  * by dxl_link_port_reply_start() is due delay_us after the newest byte when the ring is empty
@@ -40,11 +40,12 @@ struct fake_uart {
   uint8_t reply_published;
   uint16_t reply_delay_us;
   uint64_t reply_start_us; /* when the reply is due (WAITING / SENDING) */
+  unsigned reply_load_count; /* dxl_link_port_reply_load calls since fake_uart_init */
   /* The sniff, played by the caller when sniff_enabled. */
   bool sniff_enabled;
   uint8_t sniff;
   uint8_t sniff_end;
-  uint8_t skip;
+  uint8_t skip;           /* bytes of another servo's packet still to skip (fake_uart_sniff_skip) */
   bool woken;             /* dxl_link_port_wake since the caller cleared it */
   /* The board. */
   uint8_t baud_register;  /* the last dxl_after_port_set_baud */
@@ -61,7 +62,9 @@ struct fake_uart {
 
 void fake_uart_init(fake_uart_t *uart, uint8_t baud_register);
 
-/* A byte arrives (stamped now_us); false when the ring is full (the byte is lost). */
+/* A byte arrives (stamped now_us); false when the ring is full (the byte is lost). While a
+ * skip is under way (fake_uart_sniff_skip) the byte is counted down and forgotten instead, not
+ * stamped, as the RX interrupt does. */
 bool fake_uart_receive(fake_uart_t *uart, uint8_t byte);
 
 /* The reply on the wire has left (SENDING or WAITING -> DONE). */
@@ -75,6 +78,24 @@ void fake_uart_arm(fake_uart_t *uart, bool ping);
 /* As the RX interrupt at the armed packet's checksum: the byte goes into the ring and the
  * reply starts (matched) or is dropped (IDLE). */
 void fake_uart_checksum(fake_uart_t *uart, uint8_t byte, bool matched);
+
+/* As the sniff at a header byte before the LENGTH (FF, FF, ID): it holds the byte in its state
+ * (WAITING -> 1 -> 2 -> DXL_LINK_SNIFF_LENGTH), not in the ring. */
+void fake_uart_sniff_header(fake_uart_t *uart);
+
+/* As the sniff at the LENGTH of another servo's packet: the RX interrupt skips the length bytes
+ * that follow (fake_uart_receive), and the sniff waits for the next packet's first byte. */
+void fake_uart_sniff_skip(fake_uart_t *uart, uint8_t length);
+
+/* As the sniff at the LENGTH of a packet it keeps and does not arm (broadcast, or this servo's
+ * with an instruction it does not arm): header[0..4) = FF FF ID LENGTH goes into the ring, and
+ * the sniff holds the bytes that follow there, the link leaving them alone, until
+ * fake_uart_sniff_hand_over. */
+void fake_uart_sniff_keep(fake_uart_t *uart, const uint8_t *header);
+
+/* As the RX interrupt at the checksum of a packet the sniff kept and did not arm: the byte goes
+ * into the ring and the sniff ends (OFF); the whole packet is the finder's. */
+void fake_uart_sniff_hand_over(fake_uart_t *uart, uint8_t checksum);
 
 /* The bytes of the reply the UART can send so far: reply_bytes[0..published). */
 static inline uint8_t fake_uart_reply_ready(const fake_uart_t *uart) { return uart->reply_published; }
