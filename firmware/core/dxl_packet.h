@@ -65,6 +65,7 @@ typedef struct {
   uint8_t bytes[DXL_PACKET_MAX_BYTES];
 } dxl_finder_t;
 
+/* Empties the finder: all zeros (a finder zeroed with its container is initialised). */
 void dxl_finder_init(dxl_finder_t *finder);
 void dxl_finder_push(dxl_finder_t *finder, uint8_t byte, uint16_t now_ms);
 

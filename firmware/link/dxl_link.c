@@ -306,8 +306,7 @@ void dxl_link_conditions_changed(dxl_link_t *link, dxl_servo_t *servo, uint8_t c
 }
 
 void dxl_link_init(dxl_link_t *link, dxl_servo_t *servo, void *port) {
-  memset(link, 0, sizeof *link);
-  dxl_finder_init(&link->finder);
+  memset(link, 0, sizeof *link); /* the finder's init too: dxl_finder_init() is this zeroing */
   link->port = port;
   refresh_ping_reply(link, servo);
 }
