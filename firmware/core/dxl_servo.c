@@ -242,24 +242,32 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
     }
     const uint8_t start = params[0];
     const uint8_t slice_data_len = params[1];
-    const uint8_t slices_bytes = (uint8_t)(count - 2u);
-    const uint16_t slice_len = (uint16_t)(slice_data_len + 1u); /* 1..256 */
-    if (slice_data_len == 0 || slices_bytes == 0) {
+    uint8_t left = (uint8_t)(count - 2u); /* the slices' bytes from slice on */
+    if (slice_data_len == 0 || left == 0) {
       return 0; /* LENGTH does not fit: the whole packet is ignored */
     }
-    /* Every slice is walked (no division on the AVR): the slices must end exactly at the
-     * packet's end, else the whole packet is ignored. */
-    uint16_t own_ofs = 0;
-    uint16_t ofs = 2;
-    for (; ofs < count; ofs = (uint16_t)(ofs + slice_len)) {
-      if (own_ofs == 0 && params[ofs] == s->table[CT_ADDR_ID]) {
-        own_ofs = ofs;
+    /* Every slice is walked (no division on the AVR), in bytes (a slice of 256 never fits
+     * the at most 251 bytes): the slices must end exactly at the packet's end, else the whole
+     * packet is ignored. */
+    const uint8_t *slice = &params[2];
+    const uint8_t *own = NULL;
+    for (;;) {
+      if (own == NULL && slice[0] == s->table[CT_ADDR_ID]) {
+        own = slice;
       }
+      if (left <= slice_data_len) {
+        return 0; /* the last slice is cut short */
+      }
+      left = (uint8_t)(left - slice_data_len - 1u);
+      if (left == 0) {
+        break;
+      }
+      slice += slice_data_len + 1u;
     }
-    if (ofs != count || own_ofs == 0) {
+    if (own == NULL) {
       return 0;
     }
-    return plan_checked_write(s, r, DXL_ACTION_WRITE, start, &params[own_ofs + 1u], slice_data_len);
+    return plan_checked_write(s, r, DXL_ACTION_WRITE, start, own + 1, slice_data_len);
   }
   default:
     break;
