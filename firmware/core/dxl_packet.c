@@ -40,10 +40,13 @@ static void drop_front(dxl_finder_t *f, uint16_t count) {
   }
 }
 
-static void apply_release(dxl_finder_t *f) {
-  if (f->release != 0) {
-    drop_front(f, f->release);
+/* One copy for dxl_finder_next() and dxl_finder_push_slot(), the move a tail call: 16 B less
+ * flash on the ATmega88. */
+static DXL_ONE_COPY void apply_release(dxl_finder_t *f) {
+  const uint16_t release = f->release;
+  if (release != 0) {
     f->release = 0;
+    drop_front(f, release); /* a tail call (drop_front leaves release alone) */
   }
 }
 
