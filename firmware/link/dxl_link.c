@@ -31,9 +31,13 @@ static DXL_ONE_COPY void start_reply(dxl_link_t *link) {
 }
 
 /* Whether the armed packet's reply is the streamed one the link prepares and commits (else a
- * PING answered with the ready reply, which needs nothing). */
+ * PING answered with the ready reply, which needs nothing). Two returns, not one || (whose
+ * bool gcc-avr 5.4 builds and then tests): 30 B less flash on the ATmega88. */
 static bool reply_is_streamed(const dxl_packet_t *packet) {
-  return packet->instruction != DXL_INST_PING || packet->param_count != 0;
+  if (packet->instruction != DXL_INST_PING) {
+    return true;
+  }
+  return packet->param_count != 0;
 }
 
 /* The prepared packet's changes to the servo, and the store of the settings it wrote
