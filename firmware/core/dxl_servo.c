@@ -78,8 +78,14 @@ static bool angle_limit_after_write(const dxl_servo_t *s, uint8_t start, const u
   const uint16_t cw_limit = ct_u16_after_write(s->table, CT_ADDR_CW_ANGLE_LIMIT, start, data, len);
   const uint16_t ccw_limit = ct_u16_after_write(s->table, CT_ADDR_CCW_ANGLE_LIMIT, start, data, len);
   if (cw_limit == 0 && ccw_limit == 0) { /* wheel mode */
-    const bool goal_written = len != 0 && window_overlaps(start, len, CT_ADDR_GOAL_POSITION, CT_ADDR_GOAL_POSITION + 1);
-    return goal_written || (ct_is_wheel_mode(s->table) && s->goal_written_in_wheel_mode);
+    /* Tests as returns, not one || of &&s: 16 B less flash on the ATmega88 (ax12). */
+    if (len != 0 && window_overlaps(start, len, CT_ADDR_GOAL_POSITION, CT_ADDR_GOAL_POSITION + 1)) {
+      return true; /* a Goal Position written */
+    }
+    if (!ct_is_wheel_mode(s->table)) {
+      return false;
+    }
+    return s->goal_written_in_wheel_mode;
   }
   const uint16_t goal = ct_u16_after_write(s->table, CT_ADDR_GOAL_POSITION, start, data, len);
   return goal < cw_limit || goal > ccw_limit;
