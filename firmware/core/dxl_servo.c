@@ -88,7 +88,10 @@ static bool angle_limit_after_write(const dxl_servo_t *s, uint8_t start, const u
     return s->goal_written_in_wheel_mode;
   }
   const uint16_t goal = ct_u16_after_write(s->table, CT_ADDR_GOAL_POSITION, start, data, len);
-  return goal < cw_limit || goal > ccw_limit;
+  if (goal < cw_limit) { /* two returns, not one || */
+    return true;
+  }
+  return goal > ccw_limit;
 }
 
 /* angle_limit_after_write() with nothing written, in a few table reads: it runs every control
@@ -102,7 +105,10 @@ static bool angle_limit_now(const dxl_servo_t *s) {
     return s->goal_written_in_wheel_mode;
   }
   const uint16_t goal = ct_get_u16(s->table, CT_ADDR_GOAL_POSITION);
-  return goal < cw_limit || goal > ccw_limit;
+  if (goal < cw_limit) { /* two returns, not one || */
+    return true;
+  }
+  return goal > ccw_limit;
 }
 
 uint8_t dxl_servo_conditions(const dxl_servo_t *servo) {
