@@ -97,7 +97,7 @@ static void update_led(void) {
 }
 
 static void service_tick(void) {
-  if (timebase_poll() == 0) {
+  if (!timebase_poll()) {
     return;
   }
   dxl_link_tick(&link, &servo, timebase_ms());

@@ -29,9 +29,9 @@ uint16_t timebase_ms(void) {
   return (uint16_t)(((uint16_t)high << 8) | low);
 }
 
-uint8_t timebase_poll(void) {
+bool timebase_poll(void) {
   const uint16_t now = timebase_ms();
-  const uint16_t elapsed = (uint16_t)(now - ms_polled);
+  const bool elapsed = now != ms_polled;
   ms_polled = now;
-  return elapsed > UINT8_MAX ? UINT8_MAX : (uint8_t)elapsed;
+  return elapsed;
 }

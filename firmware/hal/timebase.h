@@ -16,6 +16,7 @@
 
 #ifndef __ASSEMBLER__
 
+#include <stdbool.h>
 #include <stdint.h>
 
 void timebase_init(void);
@@ -26,8 +27,9 @@ extern volatile uint16_t timebase_ms_count;
 /* The millisecond count, read without disabling interrupts. Main loop. */
 uint16_t timebase_ms(void);
 
-/* Control periods elapsed since the last call (0 if none; saturates at 255). Main loop. */
-uint8_t timebase_poll(void);
+/* Whether a control period has elapsed since the last call (the main loop runs one tick for
+ * any number of them). Main loop. */
+bool timebase_poll(void);
 
 #endif /* __ASSEMBLER__ */
 #endif
