@@ -118,9 +118,11 @@ static uint16_t clamp_u16(uint16_t value, uint16_t low, uint16_t high) {
  * returns whether it is at the goal now. */
 static bool advance_setpoint(dxl_control_t *c, uint16_t goal_counts, uint16_t moving_speed) {
   const int32_t goal_q16 = (int32_t)goal_counts << 16;
-  const int32_t step_q16 = (int32_t)(moving_speed & MAGNITUDE_MASK) * DXL_SPEED_UNIT_Q16_PER_TICK;
+  const uint16_t speed = moving_speed & MAGNITUDE_MASK; /* tested for 0 in 16 bits, not the
+                                                          32-bit step: 4 B less flash */
+  const int32_t step_q16 = (int32_t)speed * DXL_SPEED_UNIT_Q16_PER_TICK;
   const int32_t to_goal = goal_q16 - c->setpoint_q16;
-  if (step_q16 == 0 || (to_goal <= step_q16 && to_goal >= -step_q16)) {
+  if (speed == 0 || (to_goal <= step_q16 && to_goal >= -step_q16)) {
     c->setpoint_q16 = goal_q16;
     return true;
   }
