@@ -124,9 +124,14 @@ __attribute__((noinline)) void uart_reply_load(const uint8_t *bytes, uint8_t len
   }
 }
 
+/* uart_reply_disarm(), uart_reply_start() and uart_reply_publish() run in the main loop only,
+ * interrupts on: their atomic blocks end with SEI (ATOMIC_FORCEON) instead of restoring a
+ * saved SREG, 10 B less flash on the ATmega88. (uart_sniff_start() also runs at power-up,
+ * before SEI, so it restores.) */
+
 bool uart_reply_disarm(void) {
   bool disarmed = false;
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+  ATOMIC_BLOCK(ATOMIC_FORCEON) {
     if (uart_tx_state == UART_REPLY_ARMED) {
       uart_tx_state = UART_REPLY_IDLE;
       disarmed = true;
@@ -136,14 +141,14 @@ bool uart_reply_disarm(void) {
 }
 
 void uart_reply_start(void) {
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+  ATOMIC_BLOCK(ATOMIC_FORCEON) {
     /* The packet's last byte is the newest unless more came since. */
     reply_start_late(uart_rx_head == uart_rx_tail ? uart_rx_tick : TCNT1);
   }
 }
 
 void uart_reply_publish(uint8_t length) {
-  ATOMIC_BLOCK(ATOMIC_RESTORESTATE) {
+  ATOMIC_BLOCK(ATOMIC_FORCEON) {
     uart_tx_length = length;
     uart_tx_published = length;
     if (UCSR0B == _BV(TXEN0)) {

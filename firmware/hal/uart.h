@@ -169,7 +169,8 @@ void uart_sniff_stop_part_way(void);
  * (one store: the ISR's decrement cannot tear it) to end a skip after a gap in the bytes. */
 extern volatile uint8_t uart_skip_count;
 
-/* The rest of a streamed reply is in the loaded buffer: bytes[0..length). Any state. */
+/* The rest of a streamed reply is in the loaded buffer: bytes[0..length). Any state. Main loop
+ * only, interrupts on (its atomic block ends with SEI). */
 void uart_reply_publish(uint8_t length);
 
 /* Sets the status packet to send next (bytes[0..length), length >= 2) and its delay after
@@ -178,12 +179,14 @@ void uart_reply_publish(uint8_t length);
  * until the state is DONE. */
 void uart_reply_load(const uint8_t *bytes, uint8_t length, uint16_t delay_us);
 
-/* ARMED -> IDLE. Returns false when the RX ISR had already started the reply. */
+/* ARMED -> IDLE. Returns false when the RX ISR had already started the reply. Main loop only,
+ * interrupts on (its atomic block ends with SEI). */
 bool uart_reply_disarm(void);
 
 /* Starts the loaded reply after a packet the main loop has just completed (its last byte
  * popped): 2 us x RDT after that byte's RX interrupt if that is still ahead (TIMER1_COMPA,
- * or a spin of at most 16 ticks), else now. */
+ * or a spin of at most 16 ticks), else now. Main loop only, interrupts on (its atomic block
+ * ends with SEI). */
 void uart_reply_start(void);
 
 /* DONE -> IDLE, once the main loop has acted on what follows the reply. */
