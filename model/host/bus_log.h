@@ -1,6 +1,6 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* `--log-bus FILE.csv`: every record of the bus monitor (model/bus/bus_monitor.h) as one CSV
- * row (bus_packet_csv), after a header row (BUS_PACKET_CSV_HEADER).
+ * row (bus_packet_csv, model/bus/bus_packet_text.h), after a header row (BUS_PACKET_CSV_HEADER).
  *
  * Rows go through stdio's buffer, flushed to the kernel by bus_log_tick when rows wait and
  * BUS_LOG_FLUSH_US of wall time have passed since the last flush (the first rows at once), so a
@@ -16,6 +16,7 @@
 #include <stdio.h>
 
 #include "bus_monitor.h"
+#include "bus_packet_text.h"
 
 #define BUS_LOG_FLUSH_US 100000.0
 

@@ -14,6 +14,7 @@
 
 #include "bus.h"
 #include "bus_monitor.h"
+#include "bus_packet_text.h"
 #include "packet_encode.h"
 
 #define CYCLES_1MBPS 16.0

@@ -5,6 +5,8 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "bus_packet_text.h"
+
 static void hex_bytes(const uint8_t *bytes, size_t n, char *out, size_t len) {
   size_t used = 0;
   out[0] = '\0';

@@ -1,5 +1,7 @@
-/* Open-loop figures of the plant alone, beside the AX-12 manual (2006).
- * Usage: ax12_plant_report   (no arguments; prints a table on stdout)
+/* SPDX-License-Identifier: MIT */
+/* ax12-plant-report: open-loop figures of the plant alone (model/plant, no simavr), beside the
+ * AX-12 manual (2006); docs/plant.md quotes them.
+ * Usage: ax12-plant-report   (no arguments; prints a table on stdout)
  *
  * Spec comparisons use an ideal supply at the connector (source resistance 0);
  * the thermal figures use the default world (9.6 V through 0.1 ohm, 25 degC). */

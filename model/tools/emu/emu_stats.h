@@ -1,0 +1,18 @@
+/* SPDX-License-Identifier: GPL-3.0-or-later */
+/* `serve --stats`: the run's figures on stderr at exit ("ax12-emu: ..."): a line with the
+ * simulated time and its speed against real time (in real time also the worst lag and the
+ * re-alignments), the client's bytes both ways, bus collisions and baud mismatches; a line of
+ * the USB adapter's packets, latency waits and frame waits, and the baud the bus saw; a line of
+ * the noise's corrupted bytes and flipped bits when there is noise; and a line per servo: its
+ * UART counts, EEPROM writes and persists, flash page operations, watchdog resets, and whether
+ * it halted. */
+#ifndef EMU_STATS_H
+#define EMU_STATS_H
+
+#include "pacing.h"
+#include "pty_bridge.h"
+#include "world.h"
+
+void emu_stats_print(const world_t *world, const pty_bridge_t *pty, const pacing_t *pacing);
+
+#endif
