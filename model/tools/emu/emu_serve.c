@@ -96,7 +96,7 @@ int emu_serve(const serve_options_t *o) {
   } else if (o->control_explicit) {
     fprintf(stderr, "ax12-emu: --control: the path is too long\n");
   }
-  emu_dashboard_t dashboard = {0};
+  emu_dashboard_t dashboard = {.out_fd = -1}; /* not running */
   if (o->dashboard) {
     if (!control_open || emu_dashboard_start(&dashboard, o->control_path, o->dashboard, err, sizeof(err)) != 0) {
       fprintf(stderr, "ax12-emu: --dashboard: %s\n", control_open ? err : "it needs the control socket");
@@ -117,6 +117,11 @@ int emu_serve(const serve_options_t *o) {
     fprintf(stderr, "ax12-emu: %s\n", err);
     emu_debug_close_gdb(&debug);
     (void)emu_debug_close_trace(&debug, world, false);
+    emu_dashboard_stop(&dashboard);
+    if (control_open) {
+      emu_control_close(&control);
+    }
+    (void)emu_bus_log_stop(&bus_logging, false);
     pty_bridge_close(&pty);
     emu_state_locks_release(&locks);
     world_destroy(world);

@@ -269,6 +269,34 @@ def test_a_gdb_port_in_use_is_refused_with_one_line(tmp_path):
     assert str(port) in out.stderr and len(out.stderr.splitlines()) == 1, out.stderr
 
 
+def test_a_refused_gdb_port_closes_the_control_socket_and_the_dashboard(tmp_path):
+    """The debug session opens after the control socket and the dashboard: when it is refused,
+    the emulator stops the dashboard's process and removes its socket before it exits."""
+    def dashboards():
+        found = set()
+        for pid in os.listdir("/proc"):
+            try:
+                with open("/proc/%s/cmdline" % pid, "rb") as f:
+                    cmdline = f.read()
+            except OSError:
+                continue
+            if b"ax12_dashboard.py" in cmdline and str(tmp_path).encode() in cmdline:
+                found.add(pid)
+        return found
+
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen(1)
+        port = busy.getsockname()[1]
+        out = subprocess.run([EMU, "serve", "--fast", "--firmware-dir", FIRMWARE_DIR, "--state-dir", str(tmp_path),
+                              "--control", str(tmp_path / "control.sock"), "--dashboard", str(free_port()),
+                              "--gdb", f"1:{port}"], capture_output=True, text=True, timeout=30)
+    assert out.returncode == 1
+    assert "dashboard at" in out.stderr and str(port) in out.stderr, out.stderr
+    assert not (tmp_path / "control.sock").exists()
+    assert dashboards() == set()
+
+
 def test_sigterm_while_gdb_holds_the_bus_stops_cleanly(emulator, tmp_path):
     gdb = avr_gdb()
     port = free_port()
