@@ -10,8 +10,7 @@ comes, as a servo resyncs.
 import time
 
 import ax12_packets
-
-HEADER = 0xFF
+from ax12_table import HEADER_BYTE
 
 
 class NoAnswer(Exception):
@@ -61,7 +60,7 @@ class ServoPort:
     @staticmethod
     def _wanted(buffer):
         """How many bytes complete the packet begun in buffer (at least 1)."""
-        if len(buffer) >= 4 and buffer[0] == buffer[1] == HEADER:
+        if len(buffer) >= 4 and buffer[0] == buffer[1] == HEADER_BYTE:
             return max(1, buffer[3] + 4 - len(buffer))
         return max(1, ax12_packets.SHORTEST - len(buffer))
 
@@ -70,11 +69,11 @@ class ServoPort:
         """Removes and returns the first whole packet at the start of buffer (leading bytes
         that start no packet are dropped), or None when more bytes are needed."""
         while buffer:
-            if buffer[0] != HEADER or (len(buffer) >= 2 and buffer[1] != HEADER):
+            if buffer[0] != HEADER_BYTE or (len(buffer) >= 2 and buffer[1] != HEADER_BYTE):
                 del buffer[0]
                 continue
             # FF FF FF...: the extra FF are header bytes too (ID 0xFF is no servo).
-            while len(buffer) >= 3 and buffer[2] == HEADER:
+            while len(buffer) >= 3 and buffer[2] == HEADER_BYTE:
                 del buffer[0]
             if len(buffer) < 4:
                 return None
