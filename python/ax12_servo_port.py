@@ -6,11 +6,23 @@ The port is any object with pyserial's write(), read(n), reset_input_buffer() an
 python/ax12_packets.py. Status packets of other IDs (a servo answering late, or another master's
 exchange) are skipped; bytes that start no packet are dropped one at a time until a header
 comes, as a servo resyncs.
+
+transact() is the raw exchange under it, for the tests that look at the bytes themselves:
+whatever comes back, packet or not.
 """
 import time
 
 import ax12_packets
 from ax12_table import HEADER_BYTE
+
+
+def transact(port, request, reply_len, timeout_s=1.0):
+    """Writes request to the port (its input emptied first) and returns the bytes read back:
+    reply_len of them, or fewer when timeout_s seconds pass first."""
+    port.reset_input_buffer()
+    port.write(request)
+    port.timeout = timeout_s
+    return port.read(reply_len)
 
 
 class NoAnswer(Exception):
