@@ -10,10 +10,15 @@ message naming the servo and the step.
 from collections import namedtuple
 
 from ax12_servo_port import BadChecksum, NoAnswer
+from ax12_table import (BOOTLOADER_KEY_0, BOOTLOADER_KEY_1, BOOTLOADER_KEY_2, BOOTLOADER_KEY_3, BY_ADDR,
+                        FIRMWARE_VERSION, INST_BOOTLOADER as BOOT, INST_PING as PING, INST_READ as READ_DATA,
+                        MODEL_NUMBER)
 
-PING, READ_DATA = 0x01, 0x02  # the application's (Protocol 1.0)
-INFO, BEGIN, PAGE, END, READ, GO, BOOT = 0x20, 0x21, 0x22, 0x23, 0x24, 0x25, 0x0A
-BOOT_PARAMS = b"BOOT"
+INFO, BEGIN, PAGE, END, READ, GO = 0x20, 0x21, 0x22, 0x23, 0x24, 0x25
+BOOT_PARAMS = bytes([BOOTLOADER_KEY_0, BOOTLOADER_KEY_1, BOOTLOADER_KEY_2, BOOTLOADER_KEY_3])  # "BOOT"
+# The application's Model Number (2 bytes) and Firmware Version, read at once.
+IDENTITY_ADDRESS = MODEL_NUMBER
+IDENTITY_BYTES = FIRMWARE_VERSION + BY_ADDR[FIRMWARE_VERSION].size - MODEL_NUMBER
 INFO_MAGIC = b"AXBL"
 
 ERR_INSTRUCTION, ERR_CRC, ERR_RANGE, ERR_READ_BACK = 0x40, 0x10, 0x08, 0x20
@@ -95,10 +100,11 @@ class BootClient:
         """The answer to PING, or None."""
         return self._first_answer(PING, attempts)
 
-    def application_read(self, address, count):
-        """The application's answer to READ DATA (0x02) of count bytes from address, or None."""
+    def application_identity(self):
+        """The application's answer to READ DATA of its Model Number and Firmware Version
+        (IDENTITY_BYTES from IDENTITY_ADDRESS), or None."""
         try:
-            return self.servo.exchange(READ_DATA, [address, count])
+            return self.servo.exchange(READ_DATA, [IDENTITY_ADDRESS, IDENTITY_BYTES])
         except (NoAnswer, BadChecksum):
             return None
 

@@ -6,12 +6,23 @@ The port is any object with pyserial's write(), read(n), reset_input_buffer() an
 python/ax12_packets.py. Status packets of other IDs (a servo answering late, or another master's
 exchange) are skipped; bytes that start no packet are dropped one at a time until a header
 comes, as a servo resyncs.
+
+transact() is the raw exchange under it, for the tests that look at the bytes themselves:
+whatever comes back, packet or not.
 """
 import time
 
 import ax12_packets
+from ax12_table import HEADER_BYTE
 
-HEADER = 0xFF
+
+def transact(port, request, reply_len, timeout_s=1.0):
+    """Writes request to the port (its input emptied first) and returns the bytes read back:
+    reply_len of them, or fewer when timeout_s seconds pass first."""
+    port.reset_input_buffer()
+    port.write(request)
+    port.timeout = timeout_s
+    return port.read(reply_len)
 
 
 class NoAnswer(Exception):
@@ -61,7 +72,7 @@ class ServoPort:
     @staticmethod
     def _wanted(buffer):
         """How many bytes complete the packet begun in buffer (at least 1)."""
-        if len(buffer) >= 4 and buffer[0] == buffer[1] == HEADER:
+        if len(buffer) >= 4 and buffer[0] == buffer[1] == HEADER_BYTE:
             return max(1, buffer[3] + 4 - len(buffer))
         return max(1, ax12_packets.SHORTEST - len(buffer))
 
@@ -70,11 +81,11 @@ class ServoPort:
         """Removes and returns the first whole packet at the start of buffer (leading bytes
         that start no packet are dropped), or None when more bytes are needed."""
         while buffer:
-            if buffer[0] != HEADER or (len(buffer) >= 2 and buffer[1] != HEADER):
+            if buffer[0] != HEADER_BYTE or (len(buffer) >= 2 and buffer[1] != HEADER_BYTE):
                 del buffer[0]
                 continue
             # FF FF FF...: the extra FF are header bytes too (ID 0xFF is no servo).
-            while len(buffer) >= 3 and buffer[2] == HEADER:
+            while len(buffer) >= 3 and buffer[2] == HEADER_BYTE:
                 del buffer[0]
             if len(buffer) < 4:
                 return None

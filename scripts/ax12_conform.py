@@ -350,7 +350,13 @@ class Port:
     def exchange(self, data, expect_len, timeout, quiet=0.001, grace=0.0):
         """Sends data; collects what comes back until expect_len bytes (or more) and a quiet
         gap, or until timeout after the request's end (when expect_len bytes are due, grace
-        seconds longer). Returns (bytes, request end, arrival of the first byte or None)."""
+        seconds longer). Returns (bytes, request end, arrival of the first byte or None).
+
+        Not ax12_servo_port's transact() or ServoPort: a conformance case judges what those
+        leave out, so this one times the request's end and the first byte's arrival (the
+        reply's delay), keeps listening after expect_len bytes for a quiet gap (an extra or a
+        duplicated reply is a finding, not noise), and allows for the longest Return Delay
+        Time at the port's current bit rate."""
         data = bytes(data)
         t_send = time.monotonic()
         os.write(self.fd, data)

@@ -26,7 +26,6 @@ EXIT_DONE, EXIT_SERVO, EXIT_BAD_INPUT = 0, 1, 2
 ANSWER_TIMEOUT_S = 0.3      # per request; the bootloader answers at once, the pty may hold bytes
 ENTER_TIMEOUT_S = 1.5       # from the application's answer to BOOT to the bootloader's to INFO
 START_TIMEOUT_S = 2.0       # from GO to the application's answer to PING
-MODEL_NUMBER_ADDRESS, MODEL_BYTES = 0, 3  # Model Number (2 bytes), Firmware Version
 
 
 class BadInput(Exception):
@@ -166,10 +165,10 @@ def application_answer(client, boot):
         if time.monotonic() > deadline:
             raise boot.BootError(f"servo {client.ident} does not answer PING after GO")
     while time.monotonic() <= deadline:
-        answer = client.application_read(MODEL_NUMBER_ADDRESS, MODEL_BYTES)
+        answer = client.application_identity()
         if answer is not None and answer.code & boot.ERR_INSTRUCTION:
             return STILL_IN_BOOTLOADER
-        if answer is not None and not answer.code and len(answer.params) == MODEL_BYTES:
+        if answer is not None and not answer.code and len(answer.params) == boot.IDENTITY_BYTES:
             return answer.params[0] | (answer.params[1] << 8), answer.params[2]
     info = client.info()
     if info is not None and boot.parse_info(info.params):

@@ -210,7 +210,9 @@ def framed(packet):
 
 
 def checksum_ok(packet, h):
-    return (~sum(packet[h:-1]) & 0xFF) == packet[-1]
+    """Whether the last byte of a framed packet (header length h) is its checksum."""
+    import ax12_packets  # python/, its ax12_table found by main() (ax12_build.ensure)
+    return ax12_packets.checksum(packet[h:-1]) == packet[-1]
 
 
 def varying_addresses(T):

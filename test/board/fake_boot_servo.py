@@ -16,10 +16,11 @@ Every request is recorded in `requests` as (instruction, params).
 import time
 
 import ax12_packets
+from ax12_table import INST_BOOTLOADER as BOOT, INST_PING as PING, INST_READ as READ_DATA
 
 import ax12_app_image
 
-INFO, BEGIN, PAGE, END, READ, GO, BOOT, PING, READ_DATA = 0x20, 0x21, 0x22, 0x23, 0x24, 0x25, 0x0A, 0x01, 0x02
+INFO, BEGIN, PAGE, END, READ, GO = 0x20, 0x21, 0x22, 0x23, 0x24, 0x25  # the bootloader's (docs/bootloader.md)
 SIGNATURES = {"atmega328p": b"\x1e\x95\x0f", "atmega88": b"\x1e\x93\x0a"}
 
 

@@ -45,6 +45,7 @@ ax12_build.ensure(str(BUILD))
 import ax12_table as T  # noqa: E402
 import ax12_packets as P  # noqa: E402
 import ax12_conformance_records as R  # noqa: E402
+from ax12_servo_port import transact  # noqa: E402
 
 _spec = importlib.util.spec_from_file_location("clients_conftest", REPO / "test" / "clients" / "conftest.py")
 clients = importlib.util.module_from_spec(_spec)
@@ -330,11 +331,10 @@ def test_a_broken_build_fails_exactly_the_cases_its_defect_touches(serve, tmp_pa
 # --- Ctrl-C in an EEPROM case --------------------------------------------------------------------
 
 def talk(path, packet, expect, baud=1000000):
+    """One raw exchange on the device at path: up to expect bytes back within 0.3 s."""
     import serial
-    with serial.Serial(path, baud, timeout=0.3) as s:
-        s.reset_input_buffer()
-        s.write(bytes(packet))
-        return s.read(expect)
+    with serial.Serial(path, baud) as port:
+        return transact(port, packet, expect, timeout_s=0.3)
 
 
 def read_table(path, ident=1):

@@ -19,6 +19,7 @@
 #include <sim_io.h>
 
 #include "dxl_protocol.h"
+#include "dxl_table.h"
 #include "plant_options.h"
 #include "sim_harness.h"
 
@@ -27,14 +28,6 @@
 #ifndef AX12_FIRMWARE_SHOWS_ALARM_LED
 #define AX12_FIRMWARE_SHOWS_ALARM_LED 0
 #endif
-
-enum {
-  A_CW_LIMIT = 6, A_CCW_LIMIT = 8, A_HIGHEST_TEMP = 11, A_LOWEST_VOLTAGE = 12, A_HIGHEST_VOLTAGE = 13,
-  A_ALARM_LED = 17, A_ALARM_SHUTDOWN = 18, A_TORQUE_ENABLE = 24, A_CW_MARGIN = 26, A_CCW_MARGIN = 27,
-  A_CW_SLOPE = 28, A_CCW_SLOPE = 29, A_GOAL = 30, A_MOVING_SPEED = 32, A_TORQUE_LIMIT = 34,
-  A_PRESENT_POSITION = 36, A_PRESENT_SPEED = 38, A_PRESENT_LOAD = 40, A_PRESENT_VOLTAGE = 42,
-  A_PRESENT_TEMPERATURE = 43, A_MOVING = 46, A_PUNCH = 48,
-};
 
 typedef struct {
   harness_t h;
@@ -106,7 +99,7 @@ static bool pwm_timer_running(const rig_t *r) { return (r->servo->avr->data[0x45
 /* Polls Moving every 5 ms until it reads 0; returns the simulated ms it took (fails past limit_ms). */
 static unsigned wait_until_still(rig_t *r, unsigned limit_ms) {
   for (unsigned t = 0; t <= limit_ms; t += 5) {
-    if (read_u8(r, A_MOVING) == 0) {
+    if (read_u8(r, CT_ADDR_MOVING) == 0) {
       return t;
     }
     run_ms(r, 5);
@@ -126,35 +119,35 @@ static uint64_t led_transitions_during(rig_t *r, unsigned ms) {
 static void goal_move(const char *profile) {
   rig_t r;
   rig_open(&r, profile, NULL);
-  const uint16_t start = read_u16(&r, A_PRESENT_POSITION);
+  const uint16_t start = read_u16(&r, CT_ADDR_PRESENT_POSITION);
   assert_in_range(start, 510, 514);
   assert_false(pwm_timer_running(&r)); /* torque off: coasting */
-  write_u8(&r, A_TORQUE_ENABLE, 1);
-  write_u16(&r, A_GOAL, 700);
+  write_u8(&r, CT_ADDR_TORQUE_ENABLE, 1);
+  write_u16(&r, CT_ADDR_GOAL_POSITION, 700);
   run_ms(&r, 20);
-  assert_int_equal(read_u8(&r, A_MOVING), 1);
+  assert_int_equal(read_u8(&r, CT_ADDR_MOVING), 1);
   assert_true(pwm_timer_running(&r));
   assert_true(board_pwm_duty(&r.servo->board) > 0.0);
-  assert_true(read_u16(&r, A_PRESENT_POSITION) > start);
+  assert_true(read_u16(&r, CT_ADDR_PRESENT_POSITION) > start);
   const unsigned took = wait_until_still(&r, 2000);
   run_ms(&r, 200);
-  const int position = read_u16(&r, A_PRESENT_POSITION);
-  const int margin = read_u8(&r, A_CCW_MARGIN);
+  const int position = read_u16(&r, CT_ADDR_PRESENT_POSITION);
+  const int margin = read_u8(&r, CT_ADDR_CCW_COMPLIANCE_MARGIN);
   /* Steady state: within the margin plus the arrival tolerance (2 counts) plus one count of
    * static friction below the punch (docs/control.md). */
   assert_in_range(position, 700 - margin - 3, 700 + margin + 3);
-  assert_int_equal(read_u8(&r, A_MOVING), 0);
+  assert_int_equal(read_u8(&r, CT_ADDR_MOVING), 0);
   /* The shaft is where the pot says (1024 counts per 300 deg). */
   const double shaft_counts = ax12_plant_angle_deg(&r.servo->plant) * 1024.0 / 300.0;
   assert_true(fabs(shaft_counts - position) < 1.5);
   /* About 55 deg at up to ~50 rpm: a few hundred ms. */
   assert_in_range(took, 100, 1000);
   /* And back, CW. */
-  write_u16(&r, A_GOAL, 300);
+  write_u16(&r, CT_ADDR_GOAL_POSITION, 300);
   (void)wait_until_still(&r, 3000);
   run_ms(&r, 200);
-  const int back = read_u16(&r, A_PRESENT_POSITION);
-  assert_in_range(back, 300 - read_u8(&r, A_CW_MARGIN) - 3, 300 + read_u8(&r, A_CW_MARGIN) + 3);
+  const int back = read_u16(&r, CT_ADDR_PRESENT_POSITION);
+  assert_in_range(back, 300 - read_u8(&r, CT_ADDR_CW_COMPLIANCE_MARGIN) - 3, 300 + read_u8(&r, CT_ADDR_CW_COMPLIANCE_MARGIN) + 3);
   rig_close(&r);
 }
 
@@ -173,14 +166,14 @@ static void test_moving_speed_cruise(void **state) {
   (void)state;
   rig_t r;
   rig_open(&r, "ax12", NULL);
-  write_u8(&r, A_TORQUE_ENABLE, 1);
-  write_u16(&r, A_MOVING_SPEED, 200);
-  write_u16(&r, A_GOAL, 900);
+  write_u8(&r, CT_ADDR_TORQUE_ENABLE, 1);
+  write_u16(&r, CT_ADDR_MOVING_SPEED, 200);
+  write_u16(&r, CT_ADDR_GOAL_POSITION, 900);
   run_ms(&r, 300);
   /* Present Speed is a filtered pot difference (docs/control.md): a few % of noise. */
   int sum = 0;
   for (int i = 0; i < 10; i++) {
-    sum += signed_register(read_u16(&r, A_PRESENT_SPEED));
+    sum += signed_register(read_u16(&r, CT_ADDR_PRESENT_SPEED));
     run_ms(&r, 20);
   }
   assert_in_range(sum / 10, 190, 210);
@@ -193,12 +186,12 @@ static void test_moving_speed_cruise(void **state) {
 static void step_trajectory(uint8_t slope, uint16_t *out, size_t n) {
   rig_t r;
   rig_open(&r, "ax12", NULL);
-  write_u8(&r, A_CW_SLOPE, slope);
-  write_u8(&r, A_CCW_SLOPE, slope);
-  write_u8(&r, A_TORQUE_ENABLE, 1);
-  write_u16(&r, A_GOAL, 612);
+  write_u8(&r, CT_ADDR_CW_COMPLIANCE_SLOPE, slope);
+  write_u8(&r, CT_ADDR_CCW_COMPLIANCE_SLOPE, slope);
+  write_u8(&r, CT_ADDR_TORQUE_ENABLE, 1);
+  write_u16(&r, CT_ADDR_GOAL_POSITION, 612);
   for (size_t i = 0; i < n; i++) {
-    out[i] = read_u16(&r, A_PRESENT_POSITION);
+    out[i] = read_u16(&r, CT_ADDR_PRESENT_POSITION);
     run_ms(&r, 4);
   }
   rig_close(&r);
@@ -220,36 +213,36 @@ static void test_wheel_mode_both_directions(void **state) {
   (void)state;
   rig_t r;
   rig_open(&r, "ax12", NULL);
-  write_u16(&r, A_CW_LIMIT, 0);
-  write_u16(&r, A_CCW_LIMIT, 0);
-  write_u8(&r, A_TORQUE_ENABLE, 1);
-  write_u16(&r, A_MOVING_SPEED, 1023); /* CCW, full */
+  write_u16(&r, CT_ADDR_CW_ANGLE_LIMIT, 0);
+  write_u16(&r, CT_ADDR_CCW_ANGLE_LIMIT, 0);
+  write_u8(&r, CT_ADDR_TORQUE_ENABLE, 1);
+  write_u16(&r, CT_ADDR_MOVING_SPEED, 1023); /* CCW, full */
   run_ms(&r, 150);
-  const uint16_t p0 = read_u16(&r, A_PRESENT_POSITION);
+  const uint16_t p0 = read_u16(&r, CT_ADDR_PRESENT_POSITION);
   run_ms(&r, 100);
-  const uint16_t p1 = read_u16(&r, A_PRESENT_POSITION);
-  const uint16_t ccw = read_u16(&r, A_PRESENT_SPEED);
+  const uint16_t p1 = read_u16(&r, CT_ADDR_PRESENT_POSITION);
+  const uint16_t ccw = read_u16(&r, CT_ADDR_PRESENT_SPEED);
   assert_true(p1 > p0 + 50); /* ~50 rpm = 300 deg/s: ~100 counts in 100 ms */
   assert_int_equal(ccw & 0x400u, 0);
   assert_true((ccw & 0x3FFu) > 300);
-  assert_int_equal(signed_register(read_u16(&r, A_PRESENT_LOAD)), 1023);
-  assert_int_equal(read_u8(&r, A_MOVING), 1);
+  assert_int_equal(signed_register(read_u16(&r, CT_ADDR_PRESENT_LOAD)), 1023);
+  assert_int_equal(read_u8(&r, CT_ADDR_MOVING), 1);
 
-  write_u16(&r, A_MOVING_SPEED, 0x400u | 1023u); /* CW, full */
+  write_u16(&r, CT_ADDR_MOVING_SPEED, 0x400u | 1023u); /* CW, full */
   run_ms(&r, 200);
-  const uint16_t q0 = read_u16(&r, A_PRESENT_POSITION);
+  const uint16_t q0 = read_u16(&r, CT_ADDR_PRESENT_POSITION);
   run_ms(&r, 100);
-  const uint16_t q1 = read_u16(&r, A_PRESENT_POSITION);
-  const uint16_t cw = read_u16(&r, A_PRESENT_SPEED);
+  const uint16_t q1 = read_u16(&r, CT_ADDR_PRESENT_POSITION);
+  const uint16_t cw = read_u16(&r, CT_ADDR_PRESENT_SPEED);
   assert_true(q1 + 50 < q0);
   assert_int_equal(cw & 0x400u, 0x400u);
   assert_true((cw & 0x3FFu) > 300);
-  assert_int_equal(signed_register(read_u16(&r, A_PRESENT_LOAD)), -1023);
+  assert_int_equal(signed_register(read_u16(&r, CT_ADDR_PRESENT_LOAD)), -1023);
 
-  write_u16(&r, A_MOVING_SPEED, 0); /* coasts to a stop on friction */
+  write_u16(&r, CT_ADDR_MOVING_SPEED, 0); /* coasts to a stop on friction */
   run_ms(&r, 1000);
-  assert_int_equal(read_u8(&r, A_MOVING), 0);
-  assert_int_equal(read_u16(&r, A_PRESENT_SPEED) & 0x3FFu, 0);
+  assert_int_equal(read_u8(&r, CT_ADDR_MOVING), 0);
+  assert_int_equal(read_u16(&r, CT_ADDR_PRESENT_SPEED) & 0x3FFu, 0);
   rig_close(&r);
 }
 
@@ -257,12 +250,12 @@ static void test_wheel_mode_both_directions(void **state) {
 
 /* After a trip: torque off, the error bit in replies, Torque Limit 0 in ax12a, the LED blinks. */
 static void expect_tripped(rig_t *r, uint8_t bit) {
-  assert_int_equal(read_u8(r, A_TORQUE_ENABLE), 0);
+  assert_int_equal(read_u8(r, CT_ADDR_TORQUE_ENABLE), 0);
   assert_true((ping_error(r) & bit) != 0);
   if (is_ax12a(r)) {
-    assert_int_equal(read_u16(r, A_TORQUE_LIMIT), 0);
+    assert_int_equal(read_u16(r, CT_ADDR_TORQUE_LIMIT), 0);
   } else {
-    assert_int_not_equal(read_u16(r, A_TORQUE_LIMIT), 0);
+    assert_int_not_equal(read_u16(r, CT_ADDR_TORQUE_LIMIT), 0);
   }
   const uint64_t blinks = led_transitions_during(r, 1000);
   if (AX12_FIRMWARE_SHOWS_ALARM_LED) {
@@ -278,33 +271,33 @@ static void expect_recovers(rig_t *r, uint8_t bit, uint16_t torque_limit) {
   run_ms(r, 2100);
   assert_int_equal(led_transitions_during(r, 1000), 0);
   assert_false(r->servo->board.led_on);
-  assert_int_equal(read_u8(r, A_TORQUE_ENABLE), 0); /* stays off after the condition cleared */
+  assert_int_equal(read_u8(r, CT_ADDR_TORQUE_ENABLE), 0); /* stays off after the condition cleared */
   if (is_ax12a(r)) {
-    write_u16(r, A_TORQUE_LIMIT, torque_limit);
+    write_u16(r, CT_ADDR_TORQUE_LIMIT, torque_limit);
   }
-  write_u8(r, A_TORQUE_ENABLE, 1);
+  write_u8(r, CT_ADDR_TORQUE_ENABLE, 1);
   run_ms(r, 1500);
-  assert_int_equal(read_u8(r, A_TORQUE_ENABLE), 1);
+  assert_int_equal(read_u8(r, CT_ADDR_TORQUE_ENABLE), 1);
   assert_int_equal(ping_error(r) & bit, 0);
 }
 
 static void arm_alarm(rig_t *r, uint8_t bit) {
-  write_u8(r, A_ALARM_LED, bit);
-  write_u8(r, A_ALARM_SHUTDOWN, bit);
+  write_u8(r, CT_ADDR_ALARM_LED, bit);
+  write_u8(r, CT_ADDR_ALARM_SHUTDOWN, bit);
 }
 
 static void voltage_alarm(const char *profile) {
   rig_t r;
   rig_open(&r, profile, NULL);
   arm_alarm(&r, DXL_ERR_VOLTAGE);
-  write_u8(&r, A_TORQUE_ENABLE, 1);
+  write_u8(&r, CT_ADDR_TORQUE_ENABLE, 1);
   run_ms(&r, 50);
-  assert_int_equal(read_u8(&r, A_TORQUE_ENABLE), 1);
-  assert_int_equal(read_u8(&r, A_PRESENT_VOLTAGE), 96);
+  assert_int_equal(read_u8(&r, CT_ADDR_TORQUE_ENABLE), 1);
+  assert_int_equal(read_u8(&r, CT_ADDR_PRESENT_VOLTAGE), 96);
   /* Below the lowest limit (6.0 V). */
   ax12_plant_set_supply_v(&r.servo->plant, 5.0);
   run_ms(&r, 20);
-  assert_in_range(read_u8(&r, A_PRESENT_VOLTAGE), 49, 50);
+  assert_in_range(read_u8(&r, CT_ADDR_PRESENT_VOLTAGE), 49, 50);
   expect_tripped(&r, DXL_ERR_VOLTAGE);
   ax12_plant_set_supply_v(&r.servo->plant, 9.6);
   run_ms(&r, 20);
@@ -314,9 +307,9 @@ static void voltage_alarm(const char *profile) {
   run_ms(&r, 20);
   expect_tripped(&r, DXL_ERR_VOLTAGE);
   /* Still out of limits: Torque Enable 1 trips again at once. */
-  write_u8(&r, A_TORQUE_ENABLE, 1);
+  write_u8(&r, CT_ADDR_TORQUE_ENABLE, 1);
   run_ms(&r, 5);
-  assert_int_equal(read_u8(&r, A_TORQUE_ENABLE), 0);
+  assert_int_equal(read_u8(&r, CT_ADDR_TORQUE_ENABLE), 0);
   ax12_plant_set_supply_v(&r.servo->plant, 9.6);
   run_ms(&r, 20);
   expect_recovers(&r, DXL_ERR_VOLTAGE, 1023);
@@ -341,25 +334,25 @@ static void overheating_alarm(const char *profile) {
   rig_t r;
   rig_open(&r, profile, &world);
   arm_alarm(&r, DXL_ERR_OVERHEATING);
-  const uint8_t t0 = read_u8(&r, A_PRESENT_TEMPERATURE);
+  const uint8_t t0 = read_u8(&r, CT_ADDR_PRESENT_TEMPERATURE);
   assert_in_range(t0, 59, 61);
-  write_u8(&r, A_HIGHEST_TEMP, (uint8_t)(t0 + 3u));
-  write_u8(&r, A_TORQUE_ENABLE, 1);
+  write_u8(&r, CT_ADDR_HIGHEST_LIMIT_TEMP, (uint8_t)(t0 + 3u));
+  write_u8(&r, CT_ADDR_TORQUE_ENABLE, 1);
   /* A spring pulling CW toward 30 deg, 4 N m/rad: at the equilibrium (~55 deg) the error is
    * far past the slope, the drive full, the shaft still, the winding at stall current. */
   const ax12_load_t spring = ax12_load_spring(4.0, 30.0 * M_PI / 180.0);
   ax12_plant_set_load(&r.servo->plant, &spring);
   unsigned ms = 0;
-  while (read_u8(&r, A_TORQUE_ENABLE) == 1) {
+  while (read_u8(&r, CT_ADDR_TORQUE_ENABLE) == 1) {
     assert_true(ms < 60000);
     run_ms(&r, 100);
     ms += 100;
   }
-  assert_true(read_u8(&r, A_PRESENT_TEMPERATURE) > t0 + 3u);
+  assert_true(read_u8(&r, CT_ADDR_PRESENT_TEMPERATURE) > t0 + 3u);
   assert_true(ms > 1000); /* it took heating, not a glitch */
   expect_tripped(&r, DXL_ERR_OVERHEATING);
   /* Recovery: raise the limit above the temperature (cooling would take minutes). */
-  write_u8(&r, A_HIGHEST_TEMP, 100);
+  write_u8(&r, CT_ADDR_HIGHEST_LIMIT_TEMP, 100);
   ax12_plant_set_load(&r.servo->plant, &(ax12_load_t){.kind = AX12_LOAD_NONE});
   expect_recovers(&r, DXL_ERR_OVERHEATING, 1023);
   rig_close(&r);
@@ -381,17 +374,17 @@ static void overload_alarm(const char *profile) {
   rig_t r;
   rig_open(&r, profile, NULL);
   arm_alarm(&r, DXL_ERR_OVERLOAD);
-  write_u16(&r, A_TORQUE_LIMIT, 300);
-  write_u8(&r, A_TORQUE_ENABLE, 1);
+  write_u16(&r, CT_ADDR_TORQUE_LIMIT, 300);
+  write_u8(&r, CT_ADDR_TORQUE_ENABLE, 1);
   run_ms(&r, 100);
   /* A spring pulling CW toward 50 deg, 1 N m/rad: the servo gives way until the spring's pull
    * equals what 300/1023 of the drive holds, far past margin + slope, and stays there. */
   ax12_load_t load = ax12_load_spring(1.0, 50.0 * M_PI / 180.0);
   ax12_plant_set_load(&r.servo->plant, &load);
   run_ms(&r, 900);
-  assert_int_equal(read_u8(&r, A_TORQUE_ENABLE), 1); /* a transient is not an overload */
+  assert_int_equal(read_u8(&r, CT_ADDR_TORQUE_ENABLE), 1); /* a transient is not an overload */
   unsigned ms = 0;
-  while (read_u8(&r, A_TORQUE_ENABLE) == 1) {
+  while (read_u8(&r, CT_ADDR_TORQUE_ENABLE) == 1) {
     assert_true(ms < 3000);
     run_ms(&r, 50);
     ms += 50;
@@ -402,16 +395,16 @@ static void overload_alarm(const char *profile) {
   assert_true((ping_error(&r) & DXL_ERR_OVERLOAD) != 0);
   load = ax12_load_none();
   ax12_plant_set_load(&r.servo->plant, &load);
-  write_u16(&r, A_GOAL, read_u16(&r, A_PRESENT_POSITION));
+  write_u16(&r, CT_ADDR_GOAL_POSITION, read_u16(&r, CT_ADDR_PRESENT_POSITION));
   if (is_ax12a(&r)) {
-    write_u16(&r, A_TORQUE_LIMIT, 300);
+    write_u16(&r, CT_ADDR_TORQUE_LIMIT, 300);
   }
-  write_u8(&r, A_TORQUE_ENABLE, 1); /* ends the latch */
+  write_u8(&r, CT_ADDR_TORQUE_ENABLE, 1); /* ends the latch */
   run_ms(&r, 5);
   assert_int_equal(ping_error(&r) & DXL_ERR_OVERLOAD, 0);
   run_ms(&r, 2100);
   assert_int_equal(led_transitions_during(&r, 1000), 0);
-  assert_int_equal(read_u8(&r, A_TORQUE_ENABLE), 1);
+  assert_int_equal(read_u8(&r, CT_ADDR_TORQUE_ENABLE), 1);
   rig_close(&r);
 }
 
@@ -429,22 +422,22 @@ static void angle_limit_alarm(const char *profile) {
   rig_t r;
   rig_open(&r, profile, NULL);
   arm_alarm(&r, DXL_ERR_ANGLE_LIMIT);
-  write_u16(&r, A_CW_LIMIT, 200);
-  write_u16(&r, A_CCW_LIMIT, 800);
-  write_u8(&r, A_TORQUE_ENABLE, 1);
-  write_u16(&r, A_GOAL, 900); /* outside the limits */
+  write_u16(&r, CT_ADDR_CW_ANGLE_LIMIT, 200);
+  write_u16(&r, CT_ADDR_CCW_ANGLE_LIMIT, 800);
+  write_u8(&r, CT_ADDR_TORQUE_ENABLE, 1);
+  write_u16(&r, CT_ADDR_GOAL_POSITION, 900); /* outside the limits */
   assert_true((r.last_error & DXL_ERR_ANGLE_LIMIT) != 0);
   run_ms(&r, 5);
   expect_tripped(&r, DXL_ERR_ANGLE_LIMIT);
   /* Still outside: Torque Enable 1 trips again. */
-  write_u8(&r, A_TORQUE_ENABLE, 1);
+  write_u8(&r, CT_ADDR_TORQUE_ENABLE, 1);
   run_ms(&r, 5);
-  assert_int_equal(read_u8(&r, A_TORQUE_ENABLE), 0);
-  write_u16(&r, A_GOAL, 700);
+  assert_int_equal(read_u8(&r, CT_ADDR_TORQUE_ENABLE), 0);
+  write_u16(&r, CT_ADDR_GOAL_POSITION, 700);
   expect_recovers(&r, DXL_ERR_ANGLE_LIMIT, 1023);
   /* and it moves there */
   (void)wait_until_still(&r, 2000);
-  assert_in_range(read_u16(&r, A_PRESENT_POSITION), 695, 705);
+  assert_in_range(read_u16(&r, CT_ADDR_PRESENT_POSITION), 695, 705);
   rig_close(&r);
 }
 
@@ -496,15 +489,15 @@ static void script_run(script_world_t *w, bool single_step, bool every_timer0_ev
     servo_attach_plant(w->servo[i], &plant);
   }
   harness_boot(&w->h, 450);
-  script_exchange(w, 2, DXL_INST_WRITE, HP(5, 3), 6);   /* Return Delay Time 3: the spin */
-  script_exchange(w, 3, DXL_INST_WRITE, HP(5, 250), 6); /* 250: Timer1 COMPA */
-  script_exchange(w, 1, DXL_INST_WRITE, HP(5, 0), 6);
-  script_exchange(w, DXL_ID_BROADCAST, DXL_INST_WRITE, HP(A_TORQUE_ENABLE, 1), 0);
+  script_exchange(w, 2, DXL_INST_WRITE, HP(CT_ADDR_RETURN_DELAY_TIME, 3), 6);   /* 3: the spin */
+  script_exchange(w, 3, DXL_INST_WRITE, HP(CT_ADDR_RETURN_DELAY_TIME, 250), 6); /* 250: Timer1 COMPA */
+  script_exchange(w, 1, DXL_INST_WRITE, HP(CT_ADDR_RETURN_DELAY_TIME, 0), 6);
+  script_exchange(w, DXL_ID_BROADCAST, DXL_INST_WRITE, HP(CT_ADDR_TORQUE_ENABLE, 1), 0);
   script_exchange(w, DXL_ID_BROADCAST, DXL_INST_SYNC_WRITE,
-                  HP(A_GOAL, 2, 1, 0x20, 0x03, 2, 0x00, 0x01, 3, 0xC0, 0x02), 0);
+                  HP(CT_ADDR_GOAL_POSITION, 2, 1, 0x20, 0x03, 2, 0x00, 0x01, 3, 0xC0, 0x02), 0);
   for (unsigned round = 0; round < 6; round++) {
     for (uint8_t id = 1; id <= 3; id++) {
-      script_exchange(w, id, DXL_INST_READ, HP(A_PRESENT_POSITION, 4), 10);
+      script_exchange(w, id, DXL_INST_READ, HP(CT_ADDR_PRESENT_POSITION, 4), 10);
     }
     script_exchange(w, DXL_ID_BROADCAST, DXL_INST_PING, H_NO_PARAMS, 6); /* three at once */
     world_run_until(w->h.world, w->h.world->now + sim_ms(20));

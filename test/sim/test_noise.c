@@ -20,19 +20,16 @@
 #include <sim_avr.h>
 
 #include "dxl_protocol.h"
+#include "dxl_table.h"
 #include "elf_symbols.h"
 #include "sim_harness.h"
 
 #define STATUS_LEN(params) (6u + (params))
 #define NOISE_SEED 20260101u
-/* Addresses 0..35: the EEPROM area and the RAM items only instructions change (nothing
- * measured by the plant), so every clean reply is the same bytes. */
-#define TABLE_SPAN 36u
+/* Addresses 0..35 (up to Present Position): the EEPROM area and the RAM items only
+ * instructions change (nothing measured by the plant), so every clean reply is the same bytes. */
+#define TABLE_SPAN CT_ADDR_PRESENT_POSITION
 #define TABLE_REPLY_LEN STATUS_LEN(TABLE_SPAN)
-#define EEPROM_SPAN 24u
-#define ADDR_RETURN_DELAY_TIME 5u
-#define ADDR_LED 25u
-#define ADDR_GOAL_POSITION 30u
 /* A reply (Return Delay Time 0) is in within 1 ms; a request without one is given 3 ms. */
 #define REPLY_WAIT_US 3000u
 /* Silence that ends an exchange: after a full reply, and after a short one. Under noise the
@@ -91,7 +88,7 @@ static void open_noisy_bus(noisy_bus_t *b) {
   harness_boot(&b->h, 5);
   /* Replies at once, so many exchanges fit in little simulated time. */
   uint8_t reply[16];
-  const size_t n = harness_request(&b->h, 1, DXL_INST_WRITE, HP(ADDR_RETURN_DELAY_TIME, 0), STATUS_LEN(0), reply);
+  const size_t n = harness_request(&b->h, 1, DXL_INST_WRITE, HP(CT_ADDR_RETURN_DELAY_TIME, 0), STATUS_LEN(0), reply);
   assert_int_equal(n, STATUS_LEN(0));
   assert_int_equal(reply[4], 0);
 }
@@ -424,7 +421,7 @@ static bool write_was_heard(const heard_stream_t *heard, uint8_t addr, uint8_t v
 /* Every EEPROM byte that changed was put there by a packet heard on the wire. */
 static void expect_changes_explained(const heard_stream_t *heard, const uint8_t *before, const uint8_t *after) {
   bool reset = false;
-  for (uint8_t addr = 0; addr < EEPROM_SPAN; addr++) {
+  for (uint8_t addr = 0; addr < CT_EEPROM_SIZE; addr++) {
     const uint8_t was = before[5u + addr];
     const uint8_t now = after[5u + addr];
     if (was == now) {
@@ -452,11 +449,11 @@ static void send_noisy_packet(noisy_bus_t *b, unsigned i, heard_stream_t *heard)
     reply_len = TABLE_REPLY_LEN;
     break;
   case 2:
-    len = packet_encode(packet, 1, DXL_INST_WRITE, HP(ADDR_LED, (uint8_t)(i & 1u)));
+    len = packet_encode(packet, 1, DXL_INST_WRITE, HP(CT_ADDR_LED, (uint8_t)(i & 1u)));
     reply_len = STATUS_LEN(0);
     break;
   default:
-    len = packet_encode(packet, 1, DXL_INST_WRITE, HP(ADDR_GOAL_POSITION, (uint8_t)i, 0x02));
+    len = packet_encode(packet, 1, DXL_INST_WRITE, HP(CT_ADDR_GOAL_POSITION, (uint8_t)i, 0x02));
     reply_len = STATUS_LEN(0);
     break;
   }
@@ -468,8 +465,8 @@ static void test_after_heavy_noise_the_firmware_answers_and_its_eeprom_holds_onl
   (void)state;
   noisy_bus_t b;
   open_noisy_bus(&b);
-  uint8_t before[STATUS_LEN(EEPROM_SPAN)];
-  assert_int_equal(harness_request(&b.h, 1, DXL_INST_READ, HP(0, EEPROM_SPAN), sizeof(before), before),
+  uint8_t before[STATUS_LEN(CT_EEPROM_SIZE)];
+  assert_int_equal(harness_request(&b.h, 1, DXL_INST_READ, HP(0, CT_EEPROM_SIZE), sizeof(before), before),
                    sizeof(before));
 
   /* 1 % per bit: about one byte in ten is corrupted, most packets are. */
@@ -492,17 +489,17 @@ static void test_after_heavy_noise_the_firmware_answers_and_its_eeprom_holds_onl
   uint8_t reply[64];
   size_t n = harness_request(&b.h, 1, DXL_INST_PING, H_NO_PARAMS, STATUS_LEN(0), reply);
   expect_bytes(reply, n, (const uint8_t[]){0xFF, 0xFF, 0x01, 0x02, 0x00, 0xFC}, 6u);
-  uint8_t after[STATUS_LEN(EEPROM_SPAN)];
-  n = harness_request(&b.h, 1, DXL_INST_READ, HP(0, EEPROM_SPAN), sizeof(after), after);
+  uint8_t after[STATUS_LEN(CT_EEPROM_SIZE)];
+  n = harness_request(&b.h, 1, DXL_INST_READ, HP(0, CT_EEPROM_SIZE), sizeof(after), after);
   assert_int_equal(n, sizeof(after));
   assert_int_equal(after[4], 0);
   expect_changes_explained(&heard, before, after);
   assert_int_equal(after[5], 12); /* Model Number 12: read-only, no packet can change it */
   assert_int_equal(after[6], 0);
   /* RAM items still take writes. */
-  n = harness_request(&b.h, 1, DXL_INST_WRITE, HP(ADDR_GOAL_POSITION, 0x34, 0x01), STATUS_LEN(0), reply);
+  n = harness_request(&b.h, 1, DXL_INST_WRITE, HP(CT_ADDR_GOAL_POSITION, 0x34, 0x01), STATUS_LEN(0), reply);
   expect_bytes(reply, n, (const uint8_t[]){0xFF, 0xFF, 0x01, 0x02, 0x00, 0xFC}, 6u);
-  n = harness_request(&b.h, 1, DXL_INST_READ, HP(ADDR_GOAL_POSITION, 2), STATUS_LEN(2), reply);
+  n = harness_request(&b.h, 1, DXL_INST_READ, HP(CT_ADDR_GOAL_POSITION, 2), STATUS_LEN(2), reply);
   assert_int_equal(n, STATUS_LEN(2));
   assert_int_equal(reply[5], 0x34);
   assert_int_equal(reply[6], 0x01);

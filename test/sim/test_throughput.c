@@ -20,14 +20,13 @@
 #include <sim_avr.h>
 
 #include "dxl_protocol.h"
+#include "dxl_table.h"
 #include "elf_symbols.h"
 #include "sim_harness.h"
 
 #define SERVO_COUNT 30u
 /* Length of the load, simulated. */
 #define THROUGHPUT_SECONDS 2u
-/* Control table (AX-12 manual): Goal Position at 30, Moving Speed at 32, both 2 bytes. */
-#define ADDR_GOAL_POSITION 30u
 #define SYNC_WRITE_DATA_LEN 4u /* Goal Position L/H, Moving Speed L/H */
 /* params: start address, data length, then ID + data per servo. */
 #define SYNC_WRITE_PARAMS (2u + SERVO_COUNT * (1u + SYNC_WRITE_DATA_LEN))
@@ -63,7 +62,7 @@ static void goal_and_speed_bytes(unsigned packet, uint8_t id, uint8_t out[SYNC_W
  * (SYNC_WRITE_PACKET_LEN). */
 static size_t build_sync_write(unsigned packet, uint8_t out[SYNC_WRITE_PACKET_LEN]) {
   uint8_t params[SYNC_WRITE_PARAMS];
-  params[0] = ADDR_GOAL_POSITION;
+  params[0] = CT_ADDR_GOAL_POSITION;
   params[1] = SYNC_WRITE_DATA_LEN;
   for (uint8_t id = 1; id <= SERVO_COUNT; id++) {
     uint8_t *slot = &params[2u + (id - 1u) * (1u + SYNC_WRITE_DATA_LEN)];
@@ -306,7 +305,7 @@ static void expect_last_packet_applied(harness_t *h, unsigned last_packet) {
     goal_and_speed_bytes(last_packet, id, want);
     uint8_t reply[HARNESS_MAX_REPLY];
     const size_t n =
-        harness_request(h, id, DXL_INST_READ, HP(ADDR_GOAL_POSITION, SYNC_WRITE_DATA_LEN), STATUS_LEN(4), reply);
+        harness_request(h, id, DXL_INST_READ, HP(CT_ADDR_GOAL_POSITION, SYNC_WRITE_DATA_LEN), STATUS_LEN(4), reply);
     expect_reply(reply, n, id, want, sizeof(want));
   }
 }

@@ -8,6 +8,7 @@
 #include "bench_commands.h"
 #include "bench_rig.h"
 #include "bench_workload.h"
+#include "dxl_table.h"
 
 /* Where the firmware's cycles go: the awake share and the cycle profile by instruction. */
 
@@ -93,7 +94,7 @@ void bench_awake(void) {
   bench_rig_t r;
   bench_rig_open(&r, 1);
   const double idle = awake_share_over(&r, MS(1000), false);
-  bench_write_byte(&r, 1, 24, 1); /* torque on: the control loop holds the position */
+  bench_write_byte(&r, 1, CT_ADDR_TORQUE_ENABLE, 1); /* the control loop holds the position */
   world_run_until(r.world, r.world->now + MS(200));
   const double holding = awake_share_over(&r, MS(1000), false);
   const double loaded = awake_share_over(&r, MS(1000), true);

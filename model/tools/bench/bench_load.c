@@ -6,6 +6,7 @@
 #include "bench_rig.h"
 #include "bench_workload.h"
 #include "dxl_protocol.h"
+#include "dxl_table.h"
 
 /* Load: back-to-back SYNC_WRITEs (bytes lost), and the simulation's speed idle and under the
  * client loop. */
@@ -54,7 +55,7 @@ void bench_sustained(unsigned servos, double seconds, bool garbage) {
   world_run_until(r.world, r.world->now + MS(5));
   const unsigned phase = (packets - 1) / 200;
   for (unsigned id = 1; id <= servos && !garbage; id++) {
-    uint8_t q[8], params[2] = {30, 2}, reply[8];
+    uint8_t q[8], params[2] = {CT_ADDR_GOAL_POSITION, 2}, reply[8];
     bench_exchange(&r, q, packet_encode(q, (uint8_t)id, DXL_INST_READ, params, 2), 8);
     const size_t got = master_rx_values(r.master, reply, sizeof reply);
     const unsigned goal = (phase & 1) ? 300 + id * 10 : 700 - id * 10;

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 
 #include "dxl_protocol.h"
+#include "dxl_table.h"
 
 #include "bench_commands.h"
 #include "bench_rig.h"
@@ -26,11 +27,11 @@ static void idle_random(bench_rig_t *r, unsigned *seed) {
 void bench_turnaround(unsigned requests) {
   bench_rig_t r;
   bench_rig_open(&r, 1);
-  bench_write_byte(&r, 1, 5, 0); /* Return Delay Time 0 */
+  bench_write_byte(&r, 1, CT_ADDR_RETURN_DELAY_TIME, 0);
   static const struct { const char *name; uint8_t instruction; uint8_t params[3]; size_t count; size_t reply; } kinds[] = {
       {"ping", DXL_INST_PING, {0}, 0, 6},
-      {"read2", DXL_INST_READ, {36, 2}, 2, 8},
-      {"write2", DXL_INST_WRITE, {30, 0x00, 0x02}, 3, 6},
+      {"read2", DXL_INST_READ, {CT_ADDR_PRESENT_POSITION, 2}, 2, 8},
+      {"write2", DXL_INST_WRITE, {CT_ADDR_GOAL_POSITION, 0x00, 0x02}, 3, 6},
   };
   sim_cycles_t *samples = calloc(requests, sizeof *samples);
   unsigned seed = 12345;
@@ -61,11 +62,11 @@ void bench_rdt(void) {
   printf("{");
   double worst_us = 0;
   for (size_t v = 0; v < sizeof values; v++) {
-    bench_write_byte(&r, 1, 5, values[v]);
+    bench_write_byte(&r, 1, CT_ADDR_RETURN_DELAY_TIME, values[v]);
     double worst_error_us = 0, worst_read_error_us = 0;
     for (int i = 0; i < 40; i++) {
       uint8_t p[8];
-      static const uint8_t read_position[2] = {36, 2};
+      static const uint8_t read_position[2] = {CT_ADDR_PRESENT_POSITION, 2};
       const bool read = i % 2 == 1;
       idle_random(&r, &seed);
       const sim_cycles_t latency =

@@ -9,6 +9,7 @@
 #include "bench_rig.h"
 #include "bench_workload.h"
 #include "dxl_protocol.h"
+#include "dxl_table.h"
 
 /* The deepest stack after a workload of every instruction. */
 
@@ -18,17 +19,18 @@ void bench_stack(void) {
   bench_rig_t r;
   bench_rig_open(&r, 30);
   uint8_t p[300];
-  static const uint8_t read_all[] = {0, 50}, write_led[] = {25, 1}, reg[] = {30, 0, 2}, id_param[] = {5, 0};
+  static const uint8_t read_all[] = {0, CT_SIZE}, write_led[] = {CT_ADDR_LED, 1}, reg[] = {CT_ADDR_GOAL_POSITION, 0, 2},
+                       return_delay_0[] = {CT_ADDR_RETURN_DELAY_TIME, 0};
   bench_exchange(&r, p, packet_encode(p, 1, DXL_INST_PING, NULL, 0), 6);
   bench_exchange(&r, p, packet_encode(p, 1, DXL_INST_READ, read_all, 2), 56);
   bench_exchange(&r, p, packet_encode(p, 1, DXL_INST_WRITE, write_led, 2), 6);
-  bench_exchange(&r, p, packet_encode(p, 1, DXL_INST_WRITE, id_param, 2), 6);
+  bench_exchange(&r, p, packet_encode(p, 1, DXL_INST_WRITE, return_delay_0, 2), 6);
   bench_exchange(&r, p, packet_encode(p, 1, DXL_INST_REG_WRITE, reg, 3), 6);
   bench_exchange(&r, p, packet_encode(p, 1, DXL_INST_ACTION, NULL, 0), 6);
   bench_exchange(&r, p, packet_encode(p, 1, 0x07, NULL, 0), 6);                  /* unknown instruction */
   bench_exchange(&r, p, bench_sync_write_goals(p, 30, 0, true), 0);  /* the finder's (LENGTH 154) */
   bench_exchange(&r, p, bench_sync_write_goals(p, 30, 1, false), 0); /* held by the sniff (LENGTH 94) */
-  uint8_t bad[] = {0xFF, 0xFF, 1, 2, 1, 0x00};                     /* bad checksum */
+  uint8_t bad[] = {DXL_HEADER_BYTE, DXL_HEADER_BYTE, 1, 2, DXL_INST_PING, 0x00}; /* bad checksum */
   bench_exchange(&r, bad, sizeof bad, 6);
   bench_exchange(&r, p, packet_encode(p, 1, DXL_INST_RESET, NULL, 0), 6);                  /* RESET */
   world_run_until(r.world, r.world->now + MS(200));

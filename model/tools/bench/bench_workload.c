@@ -2,12 +2,13 @@
 #include "bench_workload.h"
 
 #include "dxl_protocol.h"
+#include "dxl_table.h"
 #include "packet_encode.h"
 
 size_t bench_sync_write_goals(uint8_t *out, unsigned servos, unsigned phase, bool with_speed) {
   uint8_t params[2 + 5 * 32];
   size_t n = 0;
-  params[n++] = 30; /* Goal Position, Moving Speed */
+  params[n++] = CT_ADDR_GOAL_POSITION; /* Goal Position, Moving Speed */
   params[n++] = with_speed ? 4 : 2;
   for (unsigned id = 1; id <= servos; id++) {
     const unsigned goal = (phase & 1) ? 300 + id * 10 : 700 - id * 10;
@@ -19,20 +20,20 @@ size_t bench_sync_write_goals(uint8_t *out, unsigned servos, unsigned phase, boo
       params[n++] = 0;
     }
   }
-  return packet_encode(out, 0xFE, DXL_INST_SYNC_WRITE, params, n);
+  return packet_encode(out, DXL_ID_BROADCAST, DXL_INST_SYNC_WRITE, params, n);
 }
 
 void bench_torque_on_all(bench_rig_t *r, unsigned servos) {
   uint8_t torque_on[2 + 2 * 32];
   size_t n = 0;
-  torque_on[n++] = 24;
+  torque_on[n++] = CT_ADDR_TORQUE_ENABLE;
   torque_on[n++] = 1;
   for (unsigned id = 1; id <= servos; id++) {
     torque_on[n++] = (uint8_t)id;
     torque_on[n++] = 1;
   }
   uint8_t p[80];
-  master_send(r->master, p, packet_encode(p, 0xFE, DXL_INST_SYNC_WRITE, torque_on, n));
+  master_send(r->master, p, packet_encode(p, DXL_ID_BROADCAST, DXL_INST_SYNC_WRITE, torque_on, n));
 }
 
 unsigned bench_back_to_back(bench_rig_t *r, unsigned servos, sim_cycles_t until, bool garbage, size_t *bytes) {
@@ -64,7 +65,7 @@ unsigned bench_client_loops(bench_rig_t *r, unsigned servos, sim_cycles_t until)
     const size_t n = bench_sync_write_goals(p, servos, loops / 50, false);
     master_send(r->master, p, n);
     for (unsigned id = 1; id <= servos; id++) {
-      uint8_t q[8], params[2] = {36, 2};
+      uint8_t q[8], params[2] = {CT_ADDR_PRESENT_POSITION, 2};
       bench_exchange(r, q, packet_encode(q, (uint8_t)id, DXL_INST_READ, params, 2), 8);
     }
     loops++;

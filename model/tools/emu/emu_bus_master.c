@@ -4,6 +4,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "dxl_protocol.h"
 #include "dxl_table.h"
 
 int emu_bus_master_open(emu_bus_master_t *m, world_t *world, pty_bridge_t *pty, const servo_probe_map_t *map) {
@@ -83,7 +84,13 @@ static sim_cycles_t byte_cycles(const emu_bus_master_t *m) {
   return (sim_cycles_t)(m->master->cycles_per_bit * 10.0);
 }
 
-/* True once the reply is complete or no more of it can come. */
+/* True once the reply is complete or no more of it can come.
+ *
+ * Not master_exchange() (model/bus/master_request.c), for two reasons: that one runs the
+ * simulation itself until the reply is in, while here the serve loop owns the world's steps
+ * (real-time pacing, the pty) and only asks between them; and it waits for a number of bytes
+ * the caller expects, while a packet from the control socket may be any instruction, so here
+ * the reply's own LENGTH byte says when it is whole. */
 static bool reply_over(const emu_bus_master_t *m) {
   const sim_cycles_t now = m->world->now;
   if (now < m->request_end) {
@@ -95,7 +102,7 @@ static bool reply_over(const emu_bus_master_t *m) {
   if (n == 0) {
     return now >= m->request_end + sim_us(EMU_BUS_MASTER_WAIT_US) + gap;
   }
-  if (n >= 4u && got[0] == 0xFF && got[1] == 0xFF && n >= (size_t)got[3] + 4u) {
+  if (n >= 4u && got[0] == DXL_HEADER_BYTE && got[1] == DXL_HEADER_BYTE && n >= (size_t)got[3] + 4u) {
     return true;
   }
   return now >= master_rx(m->master, n - 1u)->end + gap;

@@ -60,7 +60,7 @@ uint8_t lab_read_u8(lab_t *lab, uint8_t addr) { return (uint8_t)read_n(lab, addr
 static int signed_register(uint16_t v) { return (v & 0x400u) ? -(int)(v & 0x3FFu) : (int)(v & 0x3FFu); }
 
 lab_present_t lab_read_present(lab_t *lab) {
-  const uint8_t *r = request(lab, DXL_INST_READ, (const uint8_t[]){A_PRESENT_POSITION, 6}, 2, 12);
+  const uint8_t *r = request(lab, DXL_INST_READ, (const uint8_t[]){CT_ADDR_PRESENT_POSITION, 6}, 2, 12);
   return (lab_present_t){.position = r[5] | (r[6] << 8),
                          .speed = signed_register((uint16_t)(r[7] | (r[8] << 8))),
                          .load = signed_register((uint16_t)(r[9] | (r[10] << 8)))};
@@ -95,9 +95,9 @@ void lab_open(lab_t *lab, const lab_options_t *o, const ax12_plant_t *plant) {
     lab_run_ms(lab, 1.0);
   }
   lab_run_ms(lab, 500.0);
-  lab_write_u8(lab, A_RETURN_DELAY, 0);
+  lab_write_u8(lab, CT_ADDR_RETURN_DELAY_TIME, 0);
   lab_run_ms(lab, 10.0); /* the EEPROM write */
-  lab_write_u8(lab, A_ALARM_SHUTDOWN, 0);
+  lab_write_u8(lab, CT_ADDR_ALARM_SHUTDOWN, 0);
 }
 
 void lab_close(lab_t *lab) {

@@ -10,20 +10,12 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "dxl_table.h" /* CT_ADDR_<NAME>: the control-table addresses the experiments use */
 #include "master.h"
 #include "plant.h"
 #include "plant_options.h"
 #include "servo.h"
 #include "world.h"
-
-/* Control-table addresses the experiments use (docs/control.md). */
-enum {
-  A_RETURN_DELAY = 5, A_CW_LIMIT = 6, A_CCW_LIMIT = 8, A_HIGHEST_TEMP = 11, A_ALARM_LED = 17,
-  A_ALARM_SHUTDOWN = 18, A_TORQUE_ENABLE = 24, A_CW_MARGIN = 26, A_CCW_MARGIN = 27, A_CW_SLOPE = 28,
-  A_CCW_SLOPE = 29, A_GOAL = 30, A_MOVING_SPEED = 32, A_TORQUE_LIMIT = 34, A_PRESENT_POSITION = 36,
-  A_PRESENT_SPEED = 38, A_PRESENT_LOAD = 40, A_PRESENT_VOLTAGE = 42, A_PRESENT_TEMPERATURE = 43,
-  A_MOVING = 46, A_PUNCH = 48,
-};
 
 typedef struct {
   char elf[PATH_MAX];

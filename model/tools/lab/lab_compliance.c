@@ -15,13 +15,13 @@ int lab_compliance(const lab_options_t *o) {
     lab_t lab;
     const ax12_plant_t plant = lab_plant(o, o->world.supply_v, 0.1);
     lab_open(&lab, o, &plant);
-    lab_write_u8(&lab, A_CW_MARGIN, 1);
-    lab_write_u8(&lab, A_CCW_MARGIN, 1);
-    lab_write_u8(&lab, A_CW_SLOPE, slopes[k]);
-    lab_write_u8(&lab, A_CCW_SLOPE, slopes[k]);
-    lab_write_u16(&lab, A_PUNCH, 32);
-    lab_write_u16(&lab, A_GOAL, 512);
-    lab_write_u8(&lab, A_TORQUE_ENABLE, 1);
+    lab_write_u8(&lab, CT_ADDR_CW_COMPLIANCE_MARGIN, 1);
+    lab_write_u8(&lab, CT_ADDR_CCW_COMPLIANCE_MARGIN, 1);
+    lab_write_u8(&lab, CT_ADDR_CW_COMPLIANCE_SLOPE, slopes[k]);
+    lab_write_u8(&lab, CT_ADDR_CCW_COMPLIANCE_SLOPE, slopes[k]);
+    lab_write_u16(&lab, CT_ADDR_PUNCH, 32);
+    lab_write_u16(&lab, CT_ADDR_GOAL_POSITION, 512);
+    lab_write_u8(&lab, CT_ADDR_TORQUE_ENABLE, 1);
     lab_run_ms(&lab, 300.0);
     const double t0 = lab_now_ms(&lab);
     for (;;) {

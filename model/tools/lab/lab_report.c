@@ -33,11 +33,11 @@ static void cruise(const lab_options_t *o, double supply_v, uint16_t units, doub
   ax12_plant_t plant = lab_plant(o, supply_v, 0.0);
   ax12_plant_set_angle_rad(&plant, 100.0 * 300.0 / 1024.0 / LAB_DEG_PER_RAD);
   lab_open(&lab, o, &plant);
-  lab_write_u16(&lab, A_MOVING_SPEED, units);
-  lab_write_u16(&lab, A_GOAL, 100);
-  lab_write_u8(&lab, A_TORQUE_ENABLE, 1);
+  lab_write_u16(&lab, CT_ADDR_MOVING_SPEED, units);
+  lab_write_u16(&lab, CT_ADDR_GOAL_POSITION, 100);
+  lab_write_u8(&lab, CT_ADDR_TORQUE_ENABLE, 1);
   lab_run_ms(&lab, 50.0);
-  lab_write_u16(&lab, A_GOAL, 900);
+  lab_write_u16(&lab, CT_ADDR_GOAL_POSITION, 900);
   double sum = 0.0, a0 = 0.0, t0 = 0.0;
   int n = 0;
   for (int i = 0; i < 3000; i++) {
@@ -65,8 +65,8 @@ static double stall_current(const lab_options_t *o, double supply_v, double *mot
   lab_t lab;
   const ax12_plant_t plant = lab_plant(o, supply_v, 0.0);
   lab_open(&lab, o, &plant);
-  lab_write_u16(&lab, A_GOAL, 1000);
-  lab_write_u8(&lab, A_TORQUE_ENABLE, 1);
+  lab_write_u16(&lab, CT_ADDR_GOAL_POSITION, 1000);
+  lab_write_u8(&lab, CT_ADDR_TORQUE_ENABLE, 1);
   lab_set_load(&lab, ax12_load_spring(50.0, 150.0 / LAB_DEG_PER_RAD));
   lab_run_ms(&lab, 500.0);
   const double a = ax12_plant_supply_current_a(&lab.servo->plant);
@@ -119,8 +119,8 @@ int lab_report(const lab_options_t *o) {
     lab_t lab;
     const ax12_plant_t plant = lab_plant(o, 9.6, 0.0);
     lab_open(&lab, o, &plant);
-    lab_write_u8(&lab, A_TORQUE_ENABLE, 1);
-    lab_write_u16(&lab, A_GOAL, 900);
+    lab_write_u8(&lab, CT_ADDR_TORQUE_ENABLE, 1);
+    lab_write_u16(&lab, CT_ADDR_GOAL_POSITION, 900);
     lab_run_ms(&lab, 1.0);
     servo_set_probe(lab.servo, entry);
     const double t0 = lab_now_ms(&lab);
@@ -135,7 +135,7 @@ int lab_report(const lab_options_t *o) {
           lab.servo->probe_pc = 0;
           lab.servo->probe_inside = false;
         }
-        lab_write_u16(&lab, A_GOAL, 100);
+        lab_write_u16(&lab, CT_ADDR_GOAL_POSITION, 100);
         lab.servo->probe_pc = entry;
         back = true;
       }

@@ -10,11 +10,11 @@ lab_wheel_result_t lab_wheel_run(const lab_options_t *o, double supply_v, double
   ax12_plant_t plant = lab_plant(o, supply_v, 0.0);
   ax12_plant_set_angle_rad(&plant, 20.0 / LAB_DEG_PER_RAD);
   lab_open(&lab, o, &plant);
-  lab_write_u16(&lab, A_CW_LIMIT, 0);
-  lab_write_u16(&lab, A_CCW_LIMIT, 0);
-  lab_write_u8(&lab, A_TORQUE_ENABLE, 1);
+  lab_write_u16(&lab, CT_ADDR_CW_ANGLE_LIMIT, 0);
+  lab_write_u16(&lab, CT_ADDR_CCW_ANGLE_LIMIT, 0);
+  lab_write_u8(&lab, CT_ADDR_TORQUE_ENABLE, 1);
   lab_set_load(&lab, ax12_load_constant(-load_nm));
-  lab_write_u16(&lab, A_MOVING_SPEED, drive);
+  lab_write_u16(&lab, CT_ADDR_MOVING_SPEED, drive);
   lab_run_ms(&lab, 300.0);
   lab_wheel_result_t r = {0};
   const double a0 = ax12_plant_angle_rad(&lab.servo->plant);

@@ -13,13 +13,13 @@ int lab_step(const lab_options_t *o) {
     lab_t lab;
     const ax12_plant_t plant = lab_plant(o, o->world.supply_v, 0.1);
     lab_open(&lab, o, &plant);
-    lab_write_u8(&lab, A_CW_SLOPE, slopes[k]);
-    lab_write_u8(&lab, A_CCW_SLOPE, slopes[k]);
-    lab_write_u16(&lab, A_GOAL, 412);
-    lab_write_u8(&lab, A_TORQUE_ENABLE, 1);
+    lab_write_u8(&lab, CT_ADDR_CW_COMPLIANCE_SLOPE, slopes[k]);
+    lab_write_u8(&lab, CT_ADDR_CCW_COMPLIANCE_SLOPE, slopes[k]);
+    lab_write_u16(&lab, CT_ADDR_GOAL_POSITION, 412);
+    lab_write_u8(&lab, CT_ADDR_TORQUE_ENABLE, 1);
     lab_run_ms(&lab, 600.0);
     const double t0 = lab_now_ms(&lab);
-    lab_write_u16(&lab, A_GOAL, 612);
+    lab_write_u16(&lab, CT_ADDR_GOAL_POSITION, 612);
     for (;;) {
       const double t = lab_now_ms(&lab) - t0;
       if (t > 800.0) {

@@ -22,15 +22,6 @@ FIRMWARE_DIR = os.environ.get("AX12_FIRMWARE_DIR", "")
 FIRMWARE_REQUIRED = os.environ.get("AX12_FIRMWARE_REQUIRED", "1") == "1"
 
 
-def transact(port, request, reply_len, timeout=1.0):
-    """Writes request to a pyserial port (its input emptied first) and reads up to reply_len
-    bytes within timeout seconds."""
-    port.reset_input_buffer()
-    port.write(request)
-    port.timeout = timeout
-    return port.read(reply_len)
-
-
 class Emulator:
     def __init__(self, args, timeout=20.0):
         self.args = [EMU, "serve"] + list(args)

@@ -19,6 +19,7 @@ import pytest
 import dynamixel_sdk.port_handler as sdk_port
 
 import ax12_table as T
+from ax12_packets import instruction_packet, status_packet
 from conftest import EMU, FIRMWARE_DIR
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
@@ -217,14 +218,9 @@ def load_replay():
     return ax12_replay
 
 
-def packet(ident, code, params):
-    body = bytes([ident, len(params) + 2, code]) + bytes(params)
-    return b"\xff\xff" + body + bytes([~sum(body) & 0xFF])
-
-
 def test_replay_cuts_answers_as_the_monitor_does():
     R = load_replay()
-    status = packet(1, 0, [])
+    status = status_packet(1, 0)
     assert R.split(b"\x00" + status + b"\x12\xff") == [b"\x00", status, b"\x12\xff"]
     assert R.split(b"\xff" + status) == [b"\xff" + status]  # an extra header byte
     assert R.split(b"\xff\xff\x01\x01" + status) == [b"\xff\xff\x01\x01", status]  # LENGTH 1: no packet
@@ -233,9 +229,9 @@ def test_replay_cuts_answers_as_the_monitor_does():
 
 def test_replay_aligns_the_answers_before_comparing_them():
     R = load_replay()
-    ping = R.Row(2, 0.0, "client", "instruction", packet(1, T.INST_PING, []))
+    ping = R.Row(2, 0.0, "client", "instruction", instruction_packet(1, T.INST_PING))
     ex = R.Exchange(ping, [])
-    ok, late, changed = packet(1, 0, []), packet(2, 0, [5]), packet(1, T.ERR_RANGE, [])
+    ok, late, changed = status_packet(1, 0), status_packet(2, 0, [5]), status_packet(1, T.ERR_RANGE)
     ex.expected = [ok, late]
     assert R.compare(ex, [ok, late], False, T, set()) == []
     assert R.compare(ex, [late], False, T, set()) == ["answer 1: missing: expected %s, got nothing" % R.hexs(ok)]
@@ -253,20 +249,22 @@ def test_replay_ignores_only_the_time_varying_bytes_of_read_answers():
     def same(request, expected, got, strict=False):
         return R.same(request, expected, got, strict, T, varying)
 
-    read_position = packet(1, T.INST_READ, [T.PRESENT_POSITION, 2])
-    assert same(read_position, packet(1, 0, [0x00, 0x02]), packet(1, 0, [0x10, 0x02]))
-    assert not same(read_position, packet(1, 0, [0x00, 0x02]), packet(1, 0, [0x10, 0x02]), strict=True)
-    assert not same(read_position, packet(1, 0, [0x00, 0x02]), packet(1, T.ERR_OVERLOAD, [0x10, 0x02]))
-    assert not same(read_position, packet(1, 0, [0x00, 0x02]), packet(2, 0, [0x10, 0x02]))
-    assert not same(read_position, packet(1, 0, [0x00, 0x02]), packet(1, 0, [0x10]))
-    wrong = packet(1, 0, [0x10, 0x02])[:-1] + b"\x00"
-    assert not same(read_position, packet(1, 0, [0x00, 0x02]), wrong)  # a wrong checksum stays wrong
-    read_44_to_46 = packet(1, T.INST_READ, [T.REGISTERED_INSTRUCTION, 3])
-    assert same(read_44_to_46, packet(1, 0, [0, 0, 0]), packet(1, 0, [0, 0, 1]))  # Moving
-    assert not same(read_44_to_46, packet(1, 0, [0, 0, 0]), packet(1, 0, [1, 0, 0]))  # Registered Instruction
-    read_limit = packet(1, T.INST_READ, [T.HIGHEST_LIMIT_TEMP, 1])
-    assert not same(read_limit, packet(1, 0, [85]), packet(1, 0, [70]))
-    assert not same(packet(1, T.INST_PING, []), b"\x12", b"\x13")
+    read_position = instruction_packet(1, T.INST_READ, [T.PRESENT_POSITION, 2])
+    at_512 = status_packet(1, 0, [0x00, 0x02])
+    assert same(read_position, at_512, status_packet(1, 0, [0x10, 0x02]))
+    assert not same(read_position, at_512, status_packet(1, 0, [0x10, 0x02]), strict=True)
+    assert not same(read_position, at_512, status_packet(1, T.ERR_OVERLOAD, [0x10, 0x02]))
+    assert not same(read_position, at_512, status_packet(2, 0, [0x10, 0x02]))
+    assert not same(read_position, at_512, status_packet(1, 0, [0x10]))
+    wrong = status_packet(1, 0, [0x10, 0x02])[:-1] + b"\x00"
+    assert not same(read_position, at_512, wrong)  # a wrong checksum stays wrong
+    read_44_to_46 = instruction_packet(1, T.INST_READ, [T.REGISTERED_INSTRUCTION, 3])
+    all_0 = status_packet(1, 0, [0, 0, 0])
+    assert same(read_44_to_46, all_0, status_packet(1, 0, [0, 0, 1]))  # Moving
+    assert not same(read_44_to_46, all_0, status_packet(1, 0, [1, 0, 0]))  # Registered Instruction
+    read_limit = instruction_packet(1, T.INST_READ, [T.HIGHEST_LIMIT_TEMP, 1])
+    assert not same(read_limit, status_packet(1, 0, [85]), status_packet(1, 0, [70]))
+    assert not same(instruction_packet(1, T.INST_PING), b"\x12", b"\x13")
 
 
 def test_the_log_shows_colliding_replies_and_keeps_a_cut_packet_at_exit(emulator, tmp_path):
@@ -275,7 +273,7 @@ def test_the_log_shows_colliding_replies_and_keeps_a_cut_packet_at_exit(emulator
     emu = emulator("--fast", "--ids", "1,2", "--state-dir", str(tmp_path / "s"), "--log-bus", str(log))
     port = serial.Serial(emu.device, 1000000, timeout=0.2)
     try:
-        port.write(packet(T.ID_BROADCAST, T.INST_PING, []))  # both answer at the same Return Delay Time
+        port.write(instruction_packet(T.ID_BROADCAST, T.INST_PING))  # both answer at the same Return Delay Time
         port.read(12)
         time.sleep(0.2)
         port.write(b"\xff\xff\x01")  # a packet the client never finishes

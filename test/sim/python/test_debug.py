@@ -15,7 +15,8 @@ import vcdvcd
 
 import ax12_table as T
 from ax12_packets import instruction_packet as packet, status_packet
-from conftest import EMU, FIRMWARE_DIR, transact
+from ax12_servo_port import transact
+from conftest import EMU, FIRMWARE_DIR
 
 UNITS_PER_CYCLE = 625            # the VCD's timescale is 100 ps; a 16 MHz cycle is 62.5 ns
 UNITS_PER_US = 16 * UNITS_PER_CYCLE
@@ -227,7 +228,7 @@ def test_while_gdb_holds_a_servo_the_whole_bus_stands_still(emulator, tmp_path):
             assert time.monotonic() < deadline and held.poll() is None, line
             line = held.stdout.readline()
         with serial.Serial(emu.device, 1000000, timeout=0.5) as serial_port:
-            assert transact(serial_port, packet(2, T.INST_PING), 6, timeout=0.5) == b""
+            assert transact(serial_port, packet(2, T.INST_PING), 6, timeout_s=0.5) == b""
         assert held.wait(timeout=30) == 0
         with serial.Serial(emu.device, 1000000, timeout=1.0) as serial_port:
             assert transact(serial_port, packet(2, T.INST_PING), 6) == status_packet(2, 0)

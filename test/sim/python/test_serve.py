@@ -10,7 +10,8 @@ import serial
 
 import ax12_table as T
 from ax12_packets import instruction_packet as packet, parse, status_packet
-from conftest import EMU, FIRMWARE_DIR, transact
+from ax12_servo_port import transact
+from conftest import EMU, FIRMWARE_DIR
 
 PING_REPLY = {ident: status_packet(ident, 0) for ident in range(254)}
 
@@ -56,7 +57,7 @@ def bps(baud_register):
 def settings_answered(device, ident, baud_register):
     """Addresses 0..23 as the servo at (ident, baud) answers them, or None when silent."""
     with serial.Serial(device, bps(baud_register), timeout=0.3) as port:
-        reply = transact(port, packet(ident, T.INST_READ, [0, 24]), 30, timeout=0.3)
+        reply = transact(port, packet(ident, T.INST_READ, [0, 24]), 30, timeout_s=0.3)
     status = parse(reply)
     if not status or not status.checksum_ok or status.ident != ident:
         return None
@@ -115,7 +116,7 @@ def test_every_listed_id_is_its_own_servo(emulator, tmp_path):
     with serial.Serial(emu.device, 1000000, timeout=0.3) as port:
         for ident in (1, 2, 3, 7, 10):
             assert transact(port, packet(ident, T.INST_PING), 6) == PING_REPLY[ident]
-        assert transact(port, packet(4, T.INST_PING), 6, timeout=0.1) == b""
+        assert transact(port, packet(4, T.INST_PING), 6, timeout_s=0.1) == b""
     assert sorted(p.name for p in tmp_path.glob("*.eeprom")) == sorted(
         f"servo-{i}.eeprom" for i in (1, 2, 3, 7, 10))
     assert sorted(p.name for p in tmp_path.glob("*.lock")) == sorted(
@@ -127,7 +128,7 @@ def test_fresh_servos_start_at_the_baud_asked_for(emulator, tmp_path):
     with serial.Serial(emu.device, 57600, timeout=0.5) as port:
         assert transact(port, packet(1, T.INST_PING), 6) == PING_REPLY[1]
     with serial.Serial(emu.device, 1000000, timeout=0.2) as port:
-        assert transact(port, packet(1, T.INST_PING), 6, timeout=0.2) != PING_REPLY[1]
+        assert transact(port, packet(1, T.INST_PING), 6, timeout_s=0.2) != PING_REPLY[1]
 
 
 def test_bit_error_rate_corrupts_some_replies_and_the_stats_count_it(emulator, tmp_path):
@@ -135,7 +136,7 @@ def test_bit_error_rate_corrupts_some_replies_and_the_stats_count_it(emulator, t
     outcomes = {"clean": 0, "not clean": 0}
     with serial.Serial(emu.device, 1000000, timeout=0.05) as port:
         for _ in range(100):
-            reply = transact(port, packet(1, T.INST_PING), 6, timeout=0.05)
+            reply = transact(port, packet(1, T.INST_PING), 6, timeout_s=0.05)
             outcomes["clean" if reply == PING_REPLY[1] else "not clean"] += 1
     assert emu.stop() == 0
     # About 10 % of bytes corrupted: most 12-byte exchanges survive, many do not.

@@ -10,14 +10,8 @@ import serial
 
 import ax12_table as T
 from ax12_packets import instruction_packet as packet, parse
+from ax12_servo_port import transact
 from conftest import EMU
-
-
-def transact(port, request, reply_len, timeout=1.0):
-    port.reset_input_buffer()
-    port.write(request)
-    port.timeout = timeout
-    return port.read(reply_len)
 
 
 def read(port, addr):

@@ -11,30 +11,25 @@ import serial
 
 import ax12_table as T
 from ax12_packets import instruction_packet as packet, parse, status_packet
+from ax12_servo_port import transact
 
 HANG_DIR = os.environ.get("AX12_HANG_DIR", "")
-
-
-def transact(port, request, reply_len, timeout=0.05):
-    port.reset_input_buffer()
-    port.write(request)
-    port.timeout = timeout
-    return port.read(reply_len)
+POLL_TIMEOUT_S = 0.05  # one poll of the timeline: silence for longer counts as no answer
 
 
 def answers(port, ident):
-    return transact(port, packet(ident, T.INST_PING), 6) == status_packet(ident, 0)
+    return transact(port, packet(ident, T.INST_PING), 6, POLL_TIMEOUT_S) == status_packet(ident, 0)
 
 
 def read_byte(port, ident, addr):
-    status = parse(transact(port, packet(ident, T.INST_READ, [addr, 1]), 7, timeout=0.5))
+    status = parse(transact(port, packet(ident, T.INST_READ, [addr, 1]), 7, timeout_s=0.5))
     assert status and status.checksum_ok and status.code == 0, status
     return status.params[0]
 
 
 def led_answered(port, ident):
     """Register 25 (LED) as the servo answers it, or None when it does not answer."""
-    status = parse(transact(port, packet(ident, T.INST_READ, [T.LED, 1]), 7))
+    status = parse(transact(port, packet(ident, T.INST_READ, [T.LED, 1]), 7, POLL_TIMEOUT_S))
     if not status or not status.checksum_ok or status.ident != ident:
         return None
     return status.params[0]
