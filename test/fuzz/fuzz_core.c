@@ -1,22 +1,33 @@
-/* The fuzzed core (issue #15): a libFuzzer harness that runs one servo's core and link layer
- * the way the firmware's main loop does (firmware/link/dxl_link.c), from a script decoded from the
- * input (fuzz_ops.h), and checks after every operation what must always hold. A violation
- * prints what broke and aborts, so libFuzzer saves the input.
+/* The fuzzed core (issue #15): a libFuzzer harness that runs one servo's core behind the
+ * firmware's own link layer (firmware/link/dxl_link.c and dxl_after.c) on the fake UART of the
+ * host tests (test/support/fake_uart.h), from a script decoded from the input (fuzz_ops.h),
+ * and checks after every operation what must always hold. A violation prints what broke and
+ * aborts, so libFuzzer saves the input.
  *
- * Driven as dxl_link.c drives it: bytes into the finder one at a time or in batches
- * (dxl_finder_push_slot/pushed, as far as it has room, results taken between), every result
- * taken until DXL_FIND_NONE; a good packet prepared, committed, dxl_after_commit, then
- * dxl_after_reply at once or after the reply's time on the wire, while control ticks and
- * EEPROM writes run (dxl_link.c service_reply); a bad checksum through
- * dxl_servo_reject_checksum; the sniff's path (a streamable packet to this servo while the
- * finder holds nothing: all but the checksum pushed, the candidate prepared, the checksum
- * pushed, the early response committed); gap polls and 1 ms control ticks; the EEPROM
- * writer of nvm.c (test/support/eeprom_model.h) stepped by the script, cut at any byte (the
- * byte being written left at any value) and the servo powered up again from what is stored.
+ * The harness plays the board around the link, as firmware/app/main.c and the RX interrupt
+ * do: bytes into the UART's receive ring (one at a time, or as many as the ring holds before
+ * the link's next pass), then main-loop passes (dxl_link_service_reply, dxl_link_service_rx)
+ * until the link has nothing left to do; a reply the link starts is on the wire for a time
+ * the script gives (control ticks, the link's millisecond ticks and EEPROM writes run
+ * meanwhile), then sent; millisecond ticks (dxl_link_tick, the control tick,
+ * dxl_link_conditions_changed); the RX interrupt's sniff for a packet it would arm (the
+ * fake's sniff started by the link, all but the checksum held in the ring, the reply armed,
+ * the checksum at once or some milliseconds late); the EEPROM writer of nvm.c
+ * (test/support/eeprom_model.h) stepped by the script, cut at any byte (the byte being
+ * written left at any value) and the servo powered up again from what is stored.
+ *
+ * It sees each packet as the link hands it to the servo: the linker wraps
+ * dxl_servo_prepare and dxl_servo_reject_checksum (-Wl,--wrap, harness/CMakeLists.txt), so
+ * the servo is copied as the packet finds it, and dxl_finder_poll, so the reference finder is
+ * polled when the link polls its finder; the fake's hooks report the bytes the link takes,
+ * the packet handled (and the reply the UART sends for it), every store and every new baud. A packet's checks run once what follows it has run: after its reply has left and
+ * dxl_link_service_reply has run, or, without a reply, when the link goes on to another
+ * packet or is idle.
  *
  * Invariants (docs/policy.md sections in quotes):
- *   - framing: the reference finder (ref_finder.h), fed the same bytes at the same times,
- *     reports the same packets and bad checksums in the same order ("Framing and bus");
+ *   - framing: the reference finder (ref_finder.h), fed the same bytes at the same times and
+ *     polled with the link's finder, reports the same packets and bad checksums in the same
+ *     order, and nothing more once the link is idle ("Framing and bus");
  *   - replies: a reply only where "Replies" says one is due (ID, broadcast, Status Return
  *     Level, as the servo was before the packet), a well-formed status packet of the old ID
  *     with a correct checksum, LENGTH 2, or 2 + n for a READ of n bytes, whose data are the
@@ -37,8 +48,13 @@
  *   - alarms ("Alarms"): after a tick the voltage and overheating conditions are those of the
  *     sensors against the limits; torque goes off exactly when an alarm selected by Alarm
  *     Shutdown holds (profile ax12a: Torque Limit 0 too); no drive with torque off;
- *   - the early prepare: the reply prepared from the candidate is the one the complete packet
- *     gives, and a streamable packet's reply obeys dxl_servo.h "Streamed replies";
+ *   - the reply on the wire is the one the servo prepared (bytes, length, Return Delay
+ *     Time), and there is one exactly when the servo prepared one;
+ *   - the armed path: the packet the link prepares before the checksum is the one on the
+ *     wire, its reply is published before the checksum comes and obeys dxl_servo.h "Streamed
+ *     replies", and what the link commits (or, for a PING, the ready reply the UART sends) is
+ *     what the complete packet gives;
+ *   - the link takes every byte: none is left in the ring once it is idle;
  *   - EEPROM: whenever no store is under way, the stored settings (repaired as at power-up)
  *     are the table's EEPROM area; after a cut and a power-up the settings read are the last
  *     completely stored ones or the ones being stored, and factory defaults (no valid slot)
@@ -53,16 +69,18 @@
 #include <string.h>
 
 #include "dxl_after.h"
-#include "dxl_after_port.h"
 #include "dxl_control.h"
 #include "dxl_image.h"
+#include "dxl_link.h"
+#include "dxl_link_port.h"
 #include "dxl_packet.h"
 #include "dxl_protocol.h"
 #include "dxl_servo.h"
 #include "dxl_table.h"
-#include "item_ranges.h"
 #include "eeprom_model.h"
+#include "fake_uart.h"
 #include "fuzz_ops.h"
+#include "item_ranges.h"
 #include "ref_finder.h"
 
 /* Bounds that keep one input's run short. */
@@ -70,6 +88,19 @@
 #define PRESENT_POSITION_MAX 1023u
 #define MOVING_SPEED_WHEEL_MAX 2047u
 #define CT_PRESENT_FIRST CT_ADDR_PRESENT_POSITION /* 36..43: Present items, written by the tick */
+
+/* The fake UART's receive ring: 256 slots with 8-bit indices, one always free. */
+#define RING_CAPACITY 255u
+/* The longest packet the RX interrupt's sniff frames and may arm: UART_SNIFF_MAX_LENGTH in
+ * firmware/hal/uart.h (docs/firmware.md "Receive"); a longer one is the finder's. */
+#define SNIFF_MAX_LENGTH 96u
+/* Main-loop passes one batch of bytes may take before the link is idle: far above what any
+ * batch needs (a pass per rejected candidate, one per reply), so a link that keeps asking for
+ * passes is caught. */
+#define MAX_PASSES 100000u
+/* The EEPROM writer's pace while a reply is on the wire: a write every 4 ms (nvm.c: 3.4 ms a
+ * byte). */
+#define EEPROM_WRITE_EVERY_MS 4u
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -116,47 +147,69 @@ static uint16_t take16(input_t *in) {
  * The servo as the firmware runs it
  * --------------------------------------------------------------------------------------- */
 
+/* A packet as framed (FF FF ID LENGTH ... CHECKSUM), copied out of the finder: packet.params
+ * points into bytes. */
 typedef struct {
-  dxl_finder_t finder;
+  dxl_packet_t packet;
+  uint8_t bytes[DXL_PACKET_MAX_BYTES];
+} framed_t;
+
+/* The servo as the link's next packet finds it, and the board's counts then. */
+typedef struct {
+  bool valid; /* taken since the last packet handled */
+  dxl_servo_t servo;
+  unsigned persists;
+  unsigned baud_sets;
+} before_t;
+
+/* A packet handled whose effects are not all in yet: what follows its reply runs once the
+ * reply has left; without a reply, at once after the link reports it. */
+typedef struct {
+  bool open;
+  bool replied;
+  bool ticked; /* control ticks ran since it was handled */
+  before_t before;
+  framed_t framed;
+  dxl_response_t response; /* what the servo made of it; bytes: the reply on the wire */
+} handled_t;
+
+/* The RX interrupt's sniff as the harness plays it for one packet. */
+typedef enum {
+  SNIFF_IDLE,    /* not armed: every packet reaches the link through the finder */
+  SNIFF_ARMED,   /* armed at the packet's last byte but one; its checksum is still to come */
+  SNIFF_MATCHED, /* its checksum came, matched, and started the armed reply */
+} sniff_play_t;
+
+typedef struct {
   ref_finder_t ref;
   dxl_servo_t servo;
+  dxl_link_t link;
+  fake_uart_t uart; /* now_us: the clock */
   dxl_control_t control;
   dxl_sensors_t sensors;
   eeprom_model_t eeprom;
-  uint16_t now_ms;
   /* The settings a power-up may find: the last completely stored, and the store under way. */
   bool have_stored;
   uint8_t stored[CT_EEPROM_SIZE];
   bool have_in_flight;
   uint8_t in_flight[CT_EEPROM_SIZE];
-  unsigned persists; /* dxl_after_port_persist calls */
+  unsigned persists; /* stores started */
   /* docs/policy.md "Goal Position and the angle limits", kept here apart from the core: in
    * wheel mode, whether a Goal Position was written since wheel mode began. */
   bool wheel_goal_written;
-  uint8_t uart_baud; /* the last dxl_after_port_set_baud */
   unsigned baud_sets; /* dxl_after_port_set_baud calls */
   unsigned reply_ms; /* how long a reply takes on the wire (PACKET mode bit 5), 0: no time */
+  before_t before;
+  handled_t handled;
+  sniff_play_t sniff;
+  const dxl_packet_t *sniffed; /* the packet the sniff armed, as sent */
 } world_t;
 
 static world_t world;
 
-/* The board side of the after-reply policy: the EEPROM writer of nvm.c. */
-void dxl_after_port_persist(void *port, const uint8_t *table) {
-  world_t *w = port;
-  eeprom_model_persist(&w->eeprom, table);
-  memcpy(w->in_flight, table, CT_EEPROM_SIZE);
-  w->have_in_flight = true;
-  w->persists++;
-}
+static uint16_t now_ms(world_t *w) { return dxl_link_port_now_ms(&w->uart); }
 
-void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
-  world_t *w = port;
-  if (baud_register != w->servo.table[CT_ADDR_BAUD_RATE]) {
-    fail("set_baud(%u) while the Baud Rate register holds %u", baud_register, w->servo.table[CT_ADDR_BAUD_RATE]);
-  }
-  w->uart_baud = baud_register;
-  w->baud_sets++;
-}
+static void pass_ms(world_t *w, uint32_t ms) { w->uart.now_us += (uint64_t)ms * 1000u; }
 
 /* ---------------------------------------------------------------------------------------
  * Table invariants
@@ -567,27 +620,6 @@ static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned p
   }
 }
 
-/* ---------------------------------------------------------------------------------------
- * dxl_link.c's paths
- * --------------------------------------------------------------------------------------- */
-
-static void compare_with_reference(world_t *w, dxl_find_result_t found, const dxl_packet_t *p) {
-  ref_packet_t ref;
-  const dxl_find_result_t expected = ref_finder_next(&w->ref, &ref);
-  if (found != expected) {
-    fail("the finder says %d, the reference finder %d (reference: ID %u instruction 0x%02X, %u parameters)", found,
-         expected, ref.id, ref.instruction, ref.param_count);
-  }
-  if (found == DXL_FIND_NONE) {
-    return;
-  }
-  if (p->id != ref.id || p->instruction != ref.instruction || p->param_count != ref.param_count ||
-      p->checksum != ref.checksum || memcmp(p->params, ref.params, p->param_count) != 0) {
-    fail("the finder's packet (ID %u instruction 0x%02X, %u parameters) is not the reference finder's (ID %u "
-         "instruction 0x%02X, %u parameters)",
-         p->id, p->instruction, p->param_count, ref.id, ref.instruction, ref.param_count);
-  }
-}
 
 static void after_store_step(world_t *w) {
   if (!eeprom_model_busy(&w->eeprom) && w->have_in_flight) {
@@ -596,8 +628,6 @@ static void after_store_step(world_t *w) {
     w->have_in_flight = false;
   }
 }
-
-static void control_tick(world_t *w);
 
 static bool wheel_mode(const uint8_t *table) {
   return ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT) == 0 && ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT) == 0;
@@ -656,159 +686,345 @@ static void check_angle_condition(const world_t *w, const char *when) {
   }
 }
 
-/* dxl_link.c on_packet(), with early != NULL: the sniff's path, whose response was prepared from
- * the candidate. */
-static void handle_packet(world_t *w, const dxl_packet_t *p, const dxl_response_t *early) {
-  dxl_servo_t before;
-  memcpy(&before, &w->servo, sizeof before);
-  const unsigned persists_before = w->persists;
-  const unsigned baud_sets_before = w->baud_sets;
-  dxl_response_t r;
-  dxl_servo_prepare(&w->servo, p, &r);
-  if (early != NULL) {
-    if (early->length != r.length || memcmp(early->bytes, r.bytes, r.length) != 0 ||
-        early->delay_us != r.delay_us || early->after != r.after || early->action != r.action ||
-        early->window_start != r.window_start || early->window_len != r.window_len || early->events != r.events ||
-        (r.window_data != NULL && r.action != DXL_ACTION_NONE &&
-         memcmp(early->window_data, r.window_data, r.window_len) != 0)) {
-      fail("the response prepared before the checksum differs from the complete packet's");
+/* ---------------------------------------------------------------------------------------
+ * The board around the link (fake_uart.h hooks; context: the world)
+ * --------------------------------------------------------------------------------------- */
+
+/* A store: the EEPROM writer of nvm.c takes the settings over. */
+static void store_settings(world_t *w, const uint8_t *table) {
+  eeprom_model_persist(&w->eeprom, table);
+  memcpy(w->in_flight, table, CT_EEPROM_SIZE);
+  w->have_in_flight = true;
+  w->persists++;
+}
+
+static void on_store(void *context, const uint8_t *table) { store_settings(context, table); }
+
+static void on_baud(void *context, uint8_t baud_register) {
+  world_t *w = context;
+  if (baud_register != w->servo.table[CT_ADDR_BAUD_RATE]) {
+    fail("set_baud(%u) while the Baud Rate register holds %u", baud_register, w->servo.table[CT_ADDR_BAUD_RATE]);
+  }
+  w->baud_sets++;
+}
+
+/* The bytes the link moves from the ring into its finder reach the reference finder at the
+ * same moment, after a poll (dxl_finder_push_slot polls the gap first, an empty batch too). */
+static void on_take(void *context, const uint8_t *bytes, uint8_t count) {
+  world_t *w = context;
+  const uint16_t ms = now_ms(w);
+  ref_finder_poll(&w->ref, ms);
+  for (uint8_t i = 0; i < count; i++) {
+    if (!ref_finder_push(&w->ref, bytes[i], ms)) {
+      fail("the reference finder is full");
     }
-    memcpy(&r, early, sizeof r); /* dxl_link.c commits what it prepared early */
   }
-  dxl_servo_commit(&w->servo, &r);
-  dxl_after_commit(&w->servo, r.after, w);
-  if (r.events == 0 && (p->id == before.table[CT_ADDR_ID] || p->id == DXL_ID_BROADCAST)) {
-    unsigned start = 0;
-    const unsigned len = written_window(&before, p, &start);
-    update_wheel_goal(w, before.table, w->servo.table, start, len);
+}
+
+/* ---------------------------------------------------------------------------------------
+ * The link's packets, seen as it hands them to the servo
+ * --------------------------------------------------------------------------------------- */
+
+static void compare_with_reference(world_t *w, dxl_find_result_t found, const dxl_packet_t *p) {
+  ref_packet_t ref;
+  const dxl_find_result_t expected = ref_finder_next(&w->ref, &ref);
+  if (found != expected) {
+    fail("the finder says %d, the reference finder %d (reference: ID %u instruction 0x%02X, %u parameters)", found,
+         expected, ref.id, ref.instruction, ref.param_count);
   }
-  /* The reply's Angle Limit bit: the condition as the packet leaves the table (before what
-   * follows the reply, RESET's defaults). */
-  if (r.length >= 6 && ((r.bytes[DXL_STATUS_ERROR_OFFSET] & DXL_ERR_ANGLE_LIMIT) != 0) !=
-                           angle_condition(w, w->servo.table)) {
-    fail("packet ID %u instruction 0x%02X: reply error 0x%02X, but the Angle Limit condition is %s", p->id,
-         p->instruction, r.bytes[DXL_STATUS_ERROR_OFFSET], angle_condition(w, w->servo.table) ? "on" : "off");
+  if (found == DXL_FIND_NONE) {
+    return;
   }
-  bool ticked = false;
-  if (r.length != 0 && early == NULL && w->reply_ms != 0) {
-    /* The reply is on the wire for reply_ms: the main loop runs control ticks and EEPROM
-     * writes (one every 4 ms) meanwhile and takes no packet; what follows the reply waits for
-     * its end (dxl_link.c service_reply). */
-    for (unsigned i = 0; i < w->reply_ms; i++) {
-      w->now_ms++;
-      control_tick(w);
-      if ((i & 3u) == 3u) {
-        (void)eeprom_model_service(&w->eeprom, NULL);
-        after_store_step(w);
-      }
-    }
-    ticked = true;
+  if (p->id != ref.id || p->instruction != ref.instruction || p->param_count != ref.param_count ||
+      p->checksum != ref.checksum || memcmp(p->params, ref.params, p->param_count) != 0) {
+    fail("the finder's packet (ID %u instruction 0x%02X, %u parameters) is not the reference finder's (ID %u "
+         "instruction 0x%02X, %u parameters)",
+         p->id, p->instruction, p->param_count, ref.id, ref.instruction, ref.param_count);
   }
-  dxl_after_reply(&w->servo, early != NULL ? 0u : r.after, w); /* the reply has left (or none) */
-  if (r.after & DXL_AFTER_FACTORY_RESET) {
+}
+
+static bool same_packet(const dxl_packet_t *a, const dxl_packet_t *b) {
+  return a->id == b->id && a->instruction == b->instruction && a->param_count == b->param_count &&
+         memcmp(a->params, b->params, a->param_count) == 0;
+}
+
+static void frame(const uint8_t *bytes, uint16_t length, framed_t *out) {
+  if (length < 6u || length > DXL_PACKET_MAX_BYTES || length != 4u + bytes[3]) {
+    fail("a packet handled as %u bytes with LENGTH %u", length, length >= 4u ? bytes[3] : 0u);
+  }
+  memcpy(out->bytes, bytes, length);
+  out->packet.id = bytes[2];
+  out->packet.param_count = (uint8_t)(bytes[3] - 2u);
+  out->packet.instruction = bytes[4];
+  out->packet.params = &out->bytes[5];
+  out->packet.checksum = bytes[length - 1u];
+}
+
+/* The checks of a packet once what follows it has run. */
+static void finish_handled(world_t *w) {
+  handled_t *h = &w->handled;
+  if (!h->open) {
+    return;
+  }
+  h->open = false;
+  const dxl_servo_t *before = &h->before.servo;
+  if (h->response.after & DXL_AFTER_FACTORY_RESET) {
     w->wheel_goal_written = false;
   }
-  check_packet(w, &before, persists_before, baud_sets_before, p, &r, before.pending_events, ticked);
+  check_packet(w, before, h->before.persists, h->before.baud_sets, &h->framed.packet, &h->response,
+               before->pending_events, h->ticked);
   check_angle_condition(w, "after a packet");
-  if (w->persists != persists_before || memcmp(before.table, w->servo.table, CT_EEPROM_SIZE) != 0) {
+  if (w->persists != h->before.persists || memcmp(before->table, w->servo.table, CT_EEPROM_SIZE) != 0) {
     check_eeprom_idle(w, "after a packet"); /* else as it was before the packet */
   }
 }
 
-/* dxl_link.c on_bad_checksum(). */
-static void handle_bad_checksum(world_t *w, const dxl_packet_t *p) {
-  dxl_servo_t before;
-  memcpy(&before, &w->servo, sizeof before);
-  const unsigned persists_before = w->persists;
-  const unsigned baud_sets_before = w->baud_sets;
-  dxl_response_t r;
-  dxl_servo_reject_checksum(&w->servo, p, &r);
-  const uint8_t old_id = before.table[CT_ADDR_ID];
-  const bool own = p->id == old_id;
-  const bool due = own && before.table[CT_ADDR_STATUS_RETURN_LEVEL] >= 2;
-  if (due != (r.length != 0)) {
-    fail("bad checksum to ID %u (servo ID %u, level %u): %s", p->id, old_id,
-         before.table[CT_ADDR_STATUS_RETURN_LEVEL], r.length != 0 ? "answered" : "not answered");
+/* The link hands a packet to the servo: the packet before it is complete (the link takes the
+ * next only once a reply has left), and the servo is copied as this one finds it. */
+static void packet_begins(world_t *w, const dxl_servo_t *servo) {
+  if (w->handled.open) {
+    if (w->handled.replied) {
+      fail("a packet handed to the servo while the reply of the one before is on the wire");
+    }
+    finish_handled(w);
   }
-  if (r.length != 0) {
-    check_status_packet(&r, old_id, "checksum error reply");
-    const uint8_t error = r.bytes[DXL_STATUS_ERROR_OFFSET];
-    if ((error & DXL_ERR_EVENTS) != DXL_ERR_CHECKSUM || r.length != 6 ||
-        ((error & DXL_ERR_ANGLE_LIMIT) != 0) != angle_condition(w, before.table)) {
-      fail("checksum error reply: error 0x%02X, %u bytes", error, r.length);
+  w->before.valid = true;
+  memcpy(&w->before.servo, servo, sizeof w->before.servo);
+  w->before.persists = w->persists;
+  w->before.baud_sets = w->baud_sets;
+}
+
+/* The armed path's prepare, while the checksum is still on the wire: the finder's candidate is
+ * the packet the sniff armed, and its reply can be streamed (dxl_servo.h "Streamed replies"). */
+static void check_armed_prepare(const world_t *w, const dxl_packet_t *candidate, const dxl_response_t *r) {
+  if (!same_packet(candidate, w->sniffed)) {
+    fail("the candidate before the checksum (ID %u instruction 0x%02X, %u parameters) is not the packet on the wire",
+         candidate->id, candidate->instruction, candidate->param_count);
+  }
+  if (r->length == 0 || dxl_after_waits_for_reply(r->after) || r->bytes[0] != DXL_HEADER_BYTE ||
+      r->bytes[1] != DXL_HEADER_BYTE || r->bytes[2] != w->servo.table[CT_ADDR_ID]) {
+    fail("a streamed packet (instruction 0x%02X) breaks the stream contract: reply of %u bytes, after 0x%02X",
+         candidate->instruction, r->length, r->after);
+  }
+}
+
+/* The core's functions the link calls, wrapped by the linker (-Wl,--wrap): the servo's two
+ * entry points for a packet (the wrapper sees the servo before the packet) and the finder's
+ * gap poll (the reference finder is polled with it); each then calls the core's own. */
+void __real_dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response);
+void __real_dxl_servo_reject_checksum(dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response);
+bool __real_dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms);
+void __wrap_dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response);
+void __wrap_dxl_servo_reject_checksum(dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response);
+bool __wrap_dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms);
+
+void __wrap_dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response) {
+  world_t *w = &world;
+  packet_begins(w, servo);
+  __real_dxl_servo_prepare(servo, packet, response);
+  if (w->sniff == SNIFF_ARMED && w->uart.reply_state == DXL_LINK_REPLY_ARMED) {
+    check_armed_prepare(w, packet, response);
+  }
+}
+
+void __wrap_dxl_servo_reject_checksum(dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response) {
+  packet_begins(&world, servo);
+  __real_dxl_servo_reject_checksum(servo, packet, response);
+}
+
+bool __wrap_dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms) {
+  ref_finder_poll(&world.ref, now_ms);
+  return __real_dxl_finder_poll(finder, now_ms);
+}
+
+/* The reply the UART sends (or not) is the servo's. */
+static void check_reply_on_wire(const world_t *w, const dxl_response_t *r, bool replied, const char *what) {
+  if (replied != (r->length != 0)) {
+    fail("%s: %s", what, replied ? "a reply on the wire, none prepared" : "a reply prepared, none on the wire");
+  }
+  if (replied && (w->uart.reply_length != r->length || memcmp(w->uart.reply_bytes, r->bytes, r->length) != 0 ||
+                  w->uart.reply_delay_us != r->delay_us)) {
+    fail("%s: the reply on the wire (%u bytes, %u us) is not the prepared one (%u bytes, %u us)", what,
+         w->uart.reply_length, w->uart.reply_delay_us, r->length, r->delay_us);
+  }
+}
+
+/* A bad checksum (dxl_link.c on_bad_checksum), checked at once: nothing follows its reply. */
+static void check_bad_checksum(world_t *w, const before_t *b, const dxl_packet_t *p, const dxl_response_t *r,
+                               bool replied) {
+  const dxl_servo_t *before = &b->servo;
+  const uint8_t old_id = before->table[CT_ADDR_ID];
+  const bool own = p->id == old_id;
+  const bool due = own && before->table[CT_ADDR_STATUS_RETURN_LEVEL] >= 2;
+  if (due != (r->length != 0)) {
+    fail("bad checksum to ID %u (servo ID %u, level %u): %s", p->id, old_id,
+         before->table[CT_ADDR_STATUS_RETURN_LEVEL], r->length != 0 ? "answered" : "not answered");
+  }
+  check_reply_on_wire(w, r, replied, "checksum error reply");
+  if (r->length != 0) {
+    check_status_packet(r, old_id, "checksum error reply");
+    const uint8_t error = r->bytes[DXL_STATUS_ERROR_OFFSET];
+    if ((error & DXL_ERR_EVENTS) != DXL_ERR_CHECKSUM || r->length != 6 ||
+        ((error & DXL_ERR_ANGLE_LIMIT) != 0) != angle_condition(w, before->table)) {
+      fail("checksum error reply: error 0x%02X, %u bytes", error, r->length);
     }
   }
-  if (!servo_equal(&before, &w->servo, false, false) || w->persists != persists_before ||
-      w->baud_sets != baud_sets_before || r.after != 0 ||
-      r.action != DXL_ACTION_NONE) {
+  if (!servo_equal(before, &w->servo, false, false) || w->persists != b->persists || w->baud_sets != b->baud_sets ||
+      r->after != 0 || r->action != DXL_ACTION_NONE) {
     fail("a bad checksum (ID %u) changed something", p->id);
   }
-  const uint8_t pending = own ? (uint8_t)(before.pending_events | DXL_ERR_CHECKSUM) : before.pending_events;
+  const uint8_t pending = own ? (uint8_t)(before->pending_events | DXL_ERR_CHECKSUM) : before->pending_events;
   if (w->servo.pending_events != pending) {
     fail("a bad checksum (ID %u): pending events 0x%02X", p->id, w->servo.pending_events);
   }
 }
 
-/* service_rx()'s finder loop: every result until DXL_FIND_NONE, each checked against the
- * reference finder. */
-static void drain(world_t *w) {
-  for (;;) {
-    dxl_packet_t packet;
-    const dxl_find_result_t found = dxl_finder_next(&w->finder, &packet);
-    compare_with_reference(w, found, &packet);
-    if (found == DXL_FIND_NONE) {
-      return;
-    }
-    if (found == DXL_FIND_PACKET) {
-      handle_packet(w, &packet, NULL);
-    } else {
-      handle_bad_checksum(w, &packet);
-    }
+/* The armed packet, complete: the one the sniff armed; what the link committed (prepared from
+ * the candidate) is what the complete packet gives, and so is the ready reply a PING gets. */
+static void check_armed_packet(const world_t *w, const dxl_packet_t *p, const dxl_response_t *committed,
+                               dxl_response_t *complete) {
+  if (!same_packet(p, w->sniffed)) {
+    fail("the sniff's packet is not the finder's");
+  }
+  __real_dxl_servo_prepare(&w->handled.before.servo, p, complete);
+  const dxl_response_t *r = complete;
+  const dxl_response_t *early = committed;
+  const bool streamed = p->instruction != DXL_INST_PING || p->param_count != 0;
+  if (streamed &&
+      (early->length != r->length || memcmp(early->bytes, r->bytes, r->length) != 0 ||
+       early->delay_us != r->delay_us || early->after != r->after || early->action != r->action ||
+       early->window_start != r->window_start || early->window_len != r->window_len || early->events != r->events ||
+       (r->window_data != NULL && r->action != DXL_ACTION_NONE &&
+        memcmp(early->window_data, r->window_data, r->window_len) != 0))) {
+    fail("the response prepared before the checksum differs from the complete packet's");
   }
 }
 
-static void push_byte(world_t *w, uint8_t byte) {
-  dxl_finder_push(&w->finder, byte, w->now_ms);
-  if (!ref_finder_push(&w->ref, byte, w->now_ms)) {
-    fail("the reference finder is full");
+/* dxl_link_port_handled: a packet the link has handled (its reply started, if any). */
+static void on_handled(void *context, dxl_find_result_t found, const uint8_t *bytes, uint16_t length,
+                       const dxl_response_t *response) {
+  world_t *w = context;
+  handled_t *h = &w->handled;
+  const bool armed = w->sniff == SNIFF_MATCHED && found == DXL_FIND_PACKET;
+  if (!w->before.valid) {
+    /* Only a PING answered with the ready reply is handled without the servo: nothing to
+     * prepare nor commit. */
+    if (!armed || length != 6u || bytes[4] != DXL_INST_PING) {
+      fail("a packet (ID %u) handled without being handed to the servo", length > 2u ? bytes[2] : 0u);
+    }
+    packet_begins(w, &w->servo);
   }
-  drain(w);
+  w->before.valid = false;
+  w->sniff = SNIFF_IDLE;
+  h->before = w->before;
+  frame(bytes, length, &h->framed);
+  const dxl_packet_t *p = &h->framed.packet;
+  compare_with_reference(w, found, p);
+  const bool replied = w->uart.reply_state == DXL_LINK_REPLY_SENDING;
+  if (found == DXL_FIND_BAD_CHECKSUM) {
+    check_bad_checksum(w, &h->before, p, response, replied);
+    return;
+  }
+  const dxl_servo_t *before = &h->before.servo;
+  dxl_response_t *r = &h->response;
+  if (armed) {
+    check_armed_packet(w, p, response, r);
+  } else {
+    memcpy(r, response, sizeof *r);
+  }
+  char what[96];
+  snprintf(what, sizeof what, "packet ID %u instruction 0x%02X with %u parameters", p->id, p->instruction,
+           p->param_count);
+  check_reply_on_wire(w, r, replied, what);
+  if (r->events == 0 && (p->id == before->table[CT_ADDR_ID] || p->id == DXL_ID_BROADCAST)) {
+    unsigned start = 0;
+    const unsigned len = written_window(before, p, &start);
+    update_wheel_goal(w, before->table, w->servo.table, start, len);
+  }
+  /* The reply's Angle Limit bit: the condition as the packet leaves the table (before what
+   * follows the reply, RESET's defaults). */
+  if (r->length >= 6 && ((r->bytes[DXL_STATUS_ERROR_OFFSET] & DXL_ERR_ANGLE_LIMIT) != 0) !=
+                            angle_condition(w, w->servo.table)) {
+    fail("%s: reply error 0x%02X, but the Angle Limit condition is %s", what, r->bytes[DXL_STATUS_ERROR_OFFSET],
+         angle_condition(w, w->servo.table) ? "on" : "off");
+  }
+  h->replied = replied;
+  h->ticked = false;
+  h->open = true;
 }
 
-/* dxl_link.c push_waiting_bytes() until all are in: each batch as far as the finder has room,
- * its results taken (service_rx) before the next. An empty batch (count 0) is what dxl_link.c's
- * armed path does while the checksum is still on the wire: push_slot (which polls the gap)
- * and pushed(0). */
-static void push_batch(world_t *w, const uint8_t *bytes, size_t count) {
+/* ---------------------------------------------------------------------------------------
+ * The main loop around the link (firmware/app/main.c)
+ * --------------------------------------------------------------------------------------- */
+
+static void millisecond(world_t *w);
+
+/* The link's millisecond tick (the reference finder is polled when it polls its finder). */
+static void link_tick(world_t *w) { dxl_link_tick(&w->link, &w->servo, now_ms(w)); }
+
+/* The reply the link started is on the wire for reply_ms, the main loop's ticks and the
+ * EEPROM writer running meanwhile; then its last stop bit has left. */
+static void send_reply(world_t *w) {
+  for (unsigned ms = 1; ms <= w->reply_ms; ms++) {
+    millisecond(w);
+    if (ms % EEPROM_WRITE_EVERY_MS == 0) {
+      (void)eeprom_model_service(&w->eeprom, NULL);
+      after_store_step(w);
+    }
+  }
+  fake_uart_reply_sent(&w->uart);
+}
+
+/* Main-loop passes until the link has nothing left to do: each reply it starts is sent, and
+ * what follows it has run. Then the ring is empty, the reference finder has nothing to report
+ * either, and the last packet is complete. */
+static void run(world_t *w) {
+  for (unsigned pass = 0;; pass++) {
+    if (pass == MAX_PASSES) {
+      fail("the link still asks for passes after %u", MAX_PASSES);
+    }
+    w->uart.woken = false;
+    w->uart.log[0] = '\0'; /* the fake's event log is not read here */
+    const bool reply_sent = w->uart.reply_state == DXL_LINK_REPLY_DONE;
+    dxl_link_service_reply(&w->link, &w->servo);
+    if (reply_sent) {
+      if (w->uart.reply_state != DXL_LINK_REPLY_IDLE) {
+        fail("the link left a sent reply in state %u", w->uart.reply_state);
+      }
+      finish_handled(w);
+    }
+    dxl_link_service_rx(&w->link, &w->servo);
+    if (w->uart.reply_state == DXL_LINK_REPLY_SENDING) {
+      send_reply(w);
+    } else if (!w->uart.woken) {
+      break;
+    }
+  }
+  if (w->uart.reply_state != DXL_LINK_REPLY_ARMED && w->uart.head != w->uart.tail) {
+    fail("%u bytes left in the ring with the link idle", (uint8_t)(w->uart.head - w->uart.tail));
+  }
+  compare_with_reference(w, DXL_FIND_NONE, NULL);
+  if (w->handled.open && w->handled.replied) {
+    fail("the link is idle with a reply not sent");
+  }
+  finish_handled(w);
+}
+
+/* Bytes arrive at the UART: as many as the ring holds before the link's next passes (one
+ * batch for the finder), the rest after them. */
+static void receive(world_t *w, const uint8_t *bytes, size_t count) {
   size_t done = 0;
   do {
-    uint16_t room;
-    uint8_t *slot = dxl_finder_push_slot(&w->finder, &room, w->now_ms);
-    if (room == 0 && count != 0) {
-      fail("the finder has no room after its results were taken");
-    }
+    const size_t room = RING_CAPACITY - (uint8_t)(w->uart.head - w->uart.tail);
     const size_t n = count - done < room ? count - done : room;
-    if (n != 0) {
-      memcpy(slot, bytes + done, n);
-    }
-    dxl_finder_pushed(&w->finder, (uint16_t)n, w->now_ms);
-    ref_finder_poll(&w->ref, w->now_ms); /* push_slot polls (a push of no byte is no byte) */
     for (size_t i = 0; i < n; i++) {
-      if (!ref_finder_push(&w->ref, bytes[done + i], w->now_ms)) {
-        fail("the reference finder is full");
-      }
+      (void)fake_uart_receive(&w->uart, bytes[done + i]);
     }
     done += n;
-    drain(w);
+    run(w);
   } while (done < count);
 }
 
-static void gap_poll(world_t *w) {
-  ref_finder_poll(&w->ref, w->now_ms);
-  if (dxl_finder_poll(&w->finder, w->now_ms)) {
-    drain(w);
-  }
-}
 
 /* One control tick. Only the Present items and Moving may change, and Torque Enable (and in
  * profile ax12a Torque Limit) only to 0: every other address is compared, so the ranges hold
@@ -822,6 +1038,9 @@ __attribute__((no_sanitize("coverage"))) static void control_tick(world_t *w) {
   const uint8_t reg_len = w->servo.reg_len;
   const bool goal_flag = w->servo.goal_written_in_wheel_mode;
   const uint8_t pending = w->servo.pending_events;
+  if (w->handled.open) {
+    w->handled.ticked = true;
+  }
   bool led;
   const int16_t drive = dxl_control_tick(&w->control, &w->servo, &w->sensors, &led);
   if (drive < -DXL_DRIVE_MAX || drive > DXL_DRIVE_MAX) {
@@ -871,6 +1090,15 @@ __attribute__((no_sanitize("coverage"))) static void control_tick(world_t *w) {
   }
 }
 
+/* One millisecond of the main loop's tick (main.c service_tick): the link's timeouts and gap
+ * poll, the control tick, then the link told the conditions (for its ready PING reply). */
+static void millisecond(world_t *w) {
+  pass_ms(w, 1);
+  link_tick(w);
+  control_tick(w);
+  dxl_link_conditions_changed(&w->link, &w->servo, w->control.conditions);
+}
+
 /* ---------------------------------------------------------------------------------------
  * Power
  * --------------------------------------------------------------------------------------- */
@@ -894,12 +1122,22 @@ static void power_up(world_t *w) {
   dxl_servo_power_up(&w->servo, stored, w->sensors.position_counts);
   w->wheel_goal_written = false;
   if (stored == NULL) {
-    dxl_after_port_persist(w, w->servo.table); /* main.c: factory defaults, written back */
+    store_settings(w, w->servo.table); /* main.c: factory defaults, written back */
   }
-  w->uart_baud = w->servo.table[CT_ADDR_BAUD_RATE];
-  dxl_finder_init(&w->finder);
+  const uint64_t now_us = w->uart.now_us;
+  fake_uart_init(&w->uart, w->servo.table[CT_ADDR_BAUD_RATE]);
+  w->uart.now_us = now_us;
+  w->uart.on_take = on_take;
+  w->uart.on_store = on_store;
+  w->uart.on_baud = on_baud;
+  w->uart.on_handled = on_handled;
+  w->uart.context = w;
   ref_finder_init(&w->ref);
   dxl_control_init(&w->control);
+  w->before.valid = false;
+  w->handled.open = false;
+  w->sniff = SNIFF_IDLE;
+  dxl_link_init(&w->link, &w->servo, &w->uart);
   check_ranges(w->servo.table, "after power-up");
   check_angle_condition(w, "after power-up");
   check_eeprom_idle(w, "after power-up");
@@ -979,63 +1217,56 @@ static void start(world_t *w, input_t *in) {
  * Operations
  * --------------------------------------------------------------------------------------- */
 
-/* Whether the RX interrupt's sniff would arm this packet's reply (dxl_servo.h "Streamed
- * replies"), given that it starts only while the finder holds nothing (dxl_link.c sniff_start). */
-static bool sniff_arms(const world_t *w, uint8_t id, uint8_t instruction, uint8_t param_count, const uint8_t *params) {
-  if (!dxl_finder_idle(&w->finder) || id != w->servo.table[CT_ADDR_ID] || instruction >= 8u) {
+/* Whether the RX interrupt's sniff arms this packet's reply once it runs (firmware/hal/uart_rx.S,
+ * docs/firmware.md "Receive"): this servo's ID, an instruction of dxl_servo_stream_mask(), a
+ * WRITE from past the EEPROM area's ID and Baud Rate, LENGTH up to SNIFF_MAX_LENGTH. */
+static bool sniff_would_arm(const world_t *w, const dxl_packet_t *p) {
+  if (p->id != w->servo.table[CT_ADDR_ID] || p->instruction >= 8u || p->param_count + 2u > SNIFF_MAX_LENGTH) {
     return false;
   }
-  if ((dxl_servo_stream_mask(&w->servo) & (1u << instruction)) == 0) {
+  if ((dxl_servo_stream_mask(&w->servo) & (1u << p->instruction)) == 0) {
     return false;
   }
-  return !(instruction == DXL_INST_WRITE && param_count >= 1 && params[0] < DXL_STREAM_WRITE_MIN_ADDR);
+  return !(p->instruction == DXL_INST_WRITE && p->param_count >= 1 && p->params[0] < DXL_STREAM_WRITE_MIN_ADDR);
 }
 
-/* dxl_link.c service_rx()'s armed path: all but the checksum, the candidate prepared, then the
- * checksum; a mismatch goes on through the finder like any byte. */
-static void deliver_early(world_t *w, const uint8_t *bytes, size_t count, uint8_t id, uint8_t instruction,
-                          uint8_t param_count, const uint8_t *params) {
-  push_batch(w, bytes, count - 1u); /* its drain() is dxl_link.c's dxl_finder_next(): NONE */
-  dxl_packet_t candidate;
-  dxl_finder_candidate(&w->finder, &candidate);
-  if (candidate.id != id || candidate.instruction != instruction || candidate.param_count != param_count ||
-      memcmp(candidate.params, params, param_count) != 0) {
-    fail("the candidate before the checksum is not the packet on the wire");
+/* The RX interrupt's sniff for a packet it arms (fake_uart.h: the caller plays it). The link,
+ * idle, starts the sniff (else the finder holds bytes, the sniff does not run, and the packet
+ * arrives as a batch); the sniff holds the bytes up to the checksum in the ring and arms the
+ * reply at the last of them; the link takes the packet over, prepares the reply and publishes
+ * it. The checksum comes late_ms later, the link's millisecond ticks and passes running
+ * meanwhile (a link gives the armed reply up after DXL_LINK_SNIFF_MAX_MS without a byte), and
+ * starts the reply if it matches and the reply is still armed. */
+static void deliver_armed(world_t *w, const uint8_t *bytes, size_t count, const dxl_packet_t *sent, bool matches,
+                          unsigned late_ms) {
+  w->uart.sniff_enabled = true;
+  run(w);
+  w->uart.sniff_enabled = false; /* played for this packet only */
+  if (w->uart.sniff != DXL_LINK_SNIFF_WAITING) {
+    receive(w, bytes, count);
+    return;
   }
-  dxl_response_t early;
-  memset(&early, 0, sizeof early);
-  const bool streamed = candidate.instruction != DXL_INST_PING || candidate.param_count != 0;
-  if (streamed) {
-    dxl_servo_prepare(&w->servo, &candidate, &early);
-    if (early.length == 0 || dxl_after_waits_for_reply(early.after) || early.bytes[0] != DXL_HEADER_BYTE ||
-        early.bytes[1] != DXL_HEADER_BYTE || early.bytes[2] != w->servo.table[CT_ADDR_ID]) {
-      fail("a streamed packet (instruction 0x%02X) breaks the stream contract: reply of %u bytes, after 0x%02X",
-           candidate.instruction, early.length, early.after);
-    }
+  for (size_t i = 0; i + 1u < count; i++) {
+    (void)fake_uart_receive(&w->uart, bytes[i]);
   }
-  dxl_finder_push(&w->finder, bytes[count - 1u], w->now_ms);
-  if (!ref_finder_push(&w->ref, bytes[count - 1u], w->now_ms)) {
-    fail("the reference finder is full");
+  w->sniff = SNIFF_ARMED;
+  w->sniffed = sent;
+  w->before.valid = false;
+  fake_uart_arm(&w->uart, sent->instruction == DXL_INST_PING && sent->param_count == 0);
+  run(w);
+  if (w->uart.reply_state == DXL_LINK_REPLY_ARMED && fake_uart_reply_ready(&w->uart) != w->uart.reply_length) {
+    fail("the armed reply is not published before the checksum (%u of %u bytes)", fake_uart_reply_ready(&w->uart),
+         w->uart.reply_length);
   }
-  dxl_packet_t packet;
-  const dxl_find_result_t result = dxl_finder_next(&w->finder, &packet);
-  compare_with_reference(w, result, &packet);
-  if (result == DXL_FIND_PACKET) {
-    if (packet.id != candidate.id || packet.instruction != candidate.instruction ||
-        packet.param_count != candidate.param_count) {
-      fail("the sniff's packet is not the finder's");
-    }
-    if (streamed) {
-      handle_packet(w, &packet, &early);
-    } else {
-      handle_packet(w, &packet, NULL); /* the ready reply: check_packet compares it with the prepared one */
-    }
-  } else if (result == DXL_FIND_BAD_CHECKSUM) {
-    handle_bad_checksum(w, &packet);
+  for (unsigned ms = 0; ms < late_ms; ms++) {
+    pass_ms(w, 1);
+    link_tick(w);
+    run(w);
   }
-  if (result != DXL_FIND_NONE) {
-    drain(w);
-  }
+  w->sniff = matches && w->uart.reply_state == DXL_LINK_REPLY_ARMED ? SNIFF_MATCHED : SNIFF_IDLE;
+  fake_uart_checksum(&w->uart, bytes[count - 1u], matches);
+  run(w);
+  w->sniff = SNIFF_IDLE;
 }
 
 static void op_packet(world_t *w, input_t *in) {
@@ -1124,28 +1355,32 @@ static void op_packet(world_t *w, input_t *in) {
   switch (mode & 3u) {
   case FUZZ_DELIVER_BYTES:
     for (size_t i = 0; i < count; i++) {
-      push_byte(w, bytes[i]);
+      receive(w, &bytes[i], 1);
     }
     break;
   case FUZZ_DELIVER_BATCH:
-    push_batch(w, bytes, count);
+    receive(w, bytes, count);
     break;
   case FUZZ_DELIVER_SPLIT: {
     const uint8_t wait = take(in);
     const size_t split = take(in) % (count + 1u);
-    push_batch(w, bytes, split);
-    w->now_ms = (uint16_t)(w->now_ms + wait);
-    gap_poll(w);
-    push_batch(w, bytes + split, count - split);
+    receive(w, bytes, split);
+    pass_ms(w, wait);
+    link_tick(w);
+    run(w);
+    receive(w, bytes + split, count - split);
     break;
   }
-  default: /* FUZZ_DELIVER_EARLY */
-    if (sniff_arms(w, id, instruction, (uint8_t)n, params)) {
-      deliver_early(w, bytes, count, id, instruction, (uint8_t)n, params);
+  default: { /* FUZZ_DELIVER_EARLY */
+    const unsigned late_ms = (mode & FUZZ_MODE_LATE_CHECKSUM) ? take(in) : 0u;
+    const dxl_packet_t sent = {id, instruction, (uint8_t)n, params, checksum};
+    if (sniff_would_arm(w, &sent)) {
+      deliver_armed(w, bytes, count, &sent, (mode & FUZZ_MODE_BAD_CHECKSUM) == 0, late_ms);
     } else {
-      push_batch(w, bytes, count);
+      receive(w, bytes, count);
     }
     break;
+  }
   }
   w->reply_ms = 0;
 }
@@ -1164,10 +1399,15 @@ static void op_ticks(world_t *w, input_t *in) {
     position += step;
     position = position < 0 ? 0 : position > (int)PRESENT_POSITION_MAX ? (int)PRESENT_POSITION_MAX : position;
     w->sensors.position_counts = (uint16_t)position;
-    w->now_ms++;
-    gap_poll(w);
-    control_tick(w);
+    millisecond(w);
+    /* Passes when the tick's gap poll gave the finder bytes to rescan: otherwise the link is
+     * idle (the ring empty, no reply under way), a pass changes nothing, and ticks come by
+     * the thousand. */
+    if (w->link.finder_dirty) {
+      run(w);
+    }
   }
+  run(w);
 }
 
 static void op_cut(world_t *w, input_t *in) {
@@ -1189,25 +1429,29 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
   while (in.left != 0 && op_index < MAX_OPS) {
     op_index++;
     switch (take(&in) % FUZZ_OP_COUNT) {
-    case FUZZ_OP_PUSH_BYTE:
-      push_byte(w, take(&in));
+    case FUZZ_OP_PUSH_BYTE: {
+      const uint8_t byte = take(&in);
+      receive(w, &byte, 1);
       break;
+    }
     case FUZZ_OP_PUSH_BATCH: {
       uint8_t bytes[256];
       const unsigned n = take(&in);
       for (unsigned i = 0; i < n; i++) {
         bytes[i] = take(&in);
       }
-      push_batch(w, bytes, n);
+      receive(w, bytes, n);
       break;
     }
     case FUZZ_OP_WAIT:
-      w->now_ms = (uint16_t)(w->now_ms + take(&in));
-      gap_poll(w);
+      pass_ms(w, take(&in));
+      link_tick(w);
+      run(w);
       break;
     case FUZZ_OP_WAIT_LONG:
-      w->now_ms = (uint16_t)(w->now_ms + take16(&in));
-      gap_poll(w);
+      pass_ms(w, take16(&in));
+      link_tick(w);
+      run(w);
       break;
     case FUZZ_OP_TICKS:
       op_ticks(w, &in);
@@ -1232,11 +1476,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     case FUZZ_OP_CUT:
       op_cut(w, &in);
       break;
-    default: { /* FUZZ_OP_EMPTY_BATCH */
-      const uint8_t none[1] = {0};
-      push_batch(w, none, 0);
-      break;
-    }
+    default: /* FUZZ_OP_PASS */
+      run(w);
       break;
     }
   }

@@ -19,25 +19,29 @@
  *          values out of range occur (power-up repairs them)
  *   and then the present position at power-up (2 bytes, & 1023).
  *
- * Operations (arguments in order):
- *   PUSH_BYTE    b                      one dxl_finder_push, then the results
- *   PUSH_BATCH   n, n bytes             dxl_finder_push_slot/pushed (as far as there is room,
- *                                       results between), then the results
- *   WAIT         ms                     time passes (ms = 0..255), a gap poll
- *   WAIT_LONG    ms16                   time passes (0..65535 ms), a gap poll
+ * Operations (arguments in order); "passes": main-loop passes of the link layer until it is
+ * idle, each reply it starts sent:
+ *   PUSH_BYTE    b                      one byte into the UART's receive ring, then passes
+ *   PUSH_BATCH   n, n bytes             n bytes into the ring (one batch for the finder), then
+ *                                       passes
+ *   WAIT         ms                     time passes (ms = 0..255), one link tick, passes
+ *   WAIT_LONG    ms16                   time passes (0..65535 ms), one link tick, passes
  *   TICKS        n, flags, pos16, step, volts, temp
- *                                       n (x8 if flags & 1) control ticks of 1 ms each, with a
- *                                       gap poll each (the firmware's service_tick); the pot
- *                                       moves by (int8)step counts a tick, clamped to 0..1023
+ *                                       n (x8 if flags & 1) ticks of 1 ms each as the
+ *                                       firmware's service_tick (the link's tick, the control
+ *                                       tick, the conditions to the link), passes after each;
+ *                                       the pot moves by (int8)step counts a tick, clamped to
+ *                                       0..1023
  *   PACKET       sel, mode, ...         a packet built from the input (see below), delivered
  *                                       by bytes, in one batch, split by a wait, or through the
- *                                       sniff's early prepare
+ *                                       RX interrupt's sniff and the link's armed path
  *   EEPROM       n                      n + 1 writes of the EEPROM writer (nvm_service)
  *   EEPROM_FLUSH -                      the store runs to its end
  *   CUT          how, garbage, pos16    power cut: how & 1: in the middle of a byte's write
  *                                       (left at garbage), else between writes; then power-up
- *   EMPTY_BATCH  -                      push_slot + pushed(0) (dxl_link.c's armed path does that
- *                                       while the checksum is on the wire)
+ *   PASS         -                      passes with no new byte (the link's armed path pushes
+ *                                       empty batches while a checksum is late: PACKET mode
+ *                                       bit 6)
  *
  * PACKET: sel = id (bits 0-1: this servo's, broadcast, another given by the next byte, this
  * servo's + 1) and instruction (bits 2-4: PING, READ, WRITE, REG_WRITE, ACTION, RESET,
@@ -49,12 +53,15 @@
  *               servo's else another given by the next byte, then L bytes)
  *   others      none
  * mode: bits 0-1 delivery (0 bytes, 1 one batch, 2 two batches with a wait of the next byte
- * in ms between, at the split given by the byte after it, 3 early prepare); bit 2 bad
- * checksum (xor with the next byte | 1); bits 3-4 extra leading 0xFF bytes; bit 5 replies take
- * time: the next byte is how many ms pass between a reply's start and its end (control ticks
- * and EEPROM writes run, dxl_after_reply waits). A PACKET's bytes in order: sel, mode, the ID
- * (id GIVEN), the instruction (GIVEN), the parameters, the checksum xor (bit 2), the reply
- * time (bit 5), the split's wait and place (delivery 2). */
+ * in ms between, at the split given by the byte after it, 3 the sniff: a packet the RX
+ * interrupt would arm, while the link is idle, goes through the armed path, any other in one
+ * batch); bit 2 bad checksum (xor with the next byte | 1); bits 3-4 extra leading 0xFF bytes;
+ * bit 5 replies take time: the next byte is how many ms pass between a reply's start and its
+ * end (ticks and EEPROM writes run, what follows the reply waits); bit 6, with delivery 3: the
+ * checksum comes the next byte in ms late, with the link's tick and passes every ms (the link
+ * gives the armed reply up after 3 ms). A PACKET's bytes in order: sel, mode, the ID (id
+ * GIVEN), the instruction (GIVEN), the parameters, the checksum xor (bit 2), the reply time
+ * (bit 5), the split's wait and place (delivery 2), the checksum's delay (bit 6, delivery 3). */
 #ifndef FUZZ_OPS_H
 #define FUZZ_OPS_H
 
@@ -76,7 +83,7 @@ enum fuzz_op {
   FUZZ_OP_EEPROM,
   FUZZ_OP_EEPROM_FLUSH,
   FUZZ_OP_CUT,
-  FUZZ_OP_EMPTY_BATCH,
+  FUZZ_OP_PASS,
   FUZZ_OP_COUNT
 };
 
@@ -104,6 +111,7 @@ enum fuzz_op {
 #define FUZZ_MODE_BAD_CHECKSUM 0x04u
 #define FUZZ_MODE_EXTRA_FF(n) ((n) << 3)
 #define FUZZ_MODE_REPLY_TIME 0x20u
+#define FUZZ_MODE_LATE_CHECKSUM 0x40u
 
 #define FUZZ_WRITE_L_MOD 12u
 #define FUZZ_SYNC_L_MOD 8u

@@ -1,6 +1,6 @@
 /* Writes the seed corpus of fuzz_core (test/fuzz/corpus/): one file per scenario, each a
  * script in the format of fuzz_ops.h, covering every instruction, addressing and error path,
- * the early prepare, gaps, control alarms, EEPROM stores cut at a byte, and the starting
+ * the armed path, gaps, control alarms, EEPROM stores cut at a byte, and the starting
  * states. Usage: fuzz_make_seeds <directory>. The committed corpus is its output; run it again
  * after changing the format or a scenario. */
 #include <stdarg.h>
@@ -223,12 +223,21 @@ int main(int argc, char **argv) {
   save("garbage_resync");
 
   start_one(1);
-  /* a packet started, an empty batch 60 ms later (dxl_link.c's armed path), the rest 60 ms later */
+  /* a packet started, passes 60 ms later, the rest 60 ms later */
   bytes(7, FUZZ_OP_PUSH_BATCH, 5, 0xFF, 0xFF, 0x01, 0x02, 0x01);
   wait(60);
-  b(FUZZ_OP_EMPTY_BATCH);
+  b(FUZZ_OP_PASS);
   wait(60);
   bytes(2, FUZZ_OP_PUSH_BYTE, 0xFB);
+  /* armed PINGs whose checksum is late, the link's armed path pushing empty batches until it
+   * gives the reply up at 3 ms: 2 ms (still armed), 50 ms (the finder completes the packet),
+   * 100 and 101 ms (the gap, counted from the last byte, not from an empty batch, ends it
+   * only at 101) */
+  bytes(4, FUZZ_OP_PACKET, FUZZ_SEL(OWN, FUZZ_INST_PING), EARLY | FUZZ_MODE_LATE_CHECKSUM, 2);
+  bytes(4, FUZZ_OP_PACKET, FUZZ_SEL(OWN, FUZZ_INST_PING), EARLY | FUZZ_MODE_LATE_CHECKSUM, 50);
+  bytes(4, FUZZ_OP_PACKET, FUZZ_SEL(OWN, FUZZ_INST_PING), EARLY | FUZZ_MODE_LATE_CHECKSUM, 100);
+  bytes(4, FUZZ_OP_PACKET, FUZZ_SEL(OWN, FUZZ_INST_PING), EARLY | FUZZ_MODE_LATE_CHECKSUM, 101);
+  ping(OWN, EARLY);
   save("empty_batch");
 
   start_one(1);

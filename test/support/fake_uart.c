@@ -97,6 +97,9 @@ void dxl_link_port_rx_take(void *port, uint8_t *dst, uint8_t count) {
     dst[i] = uart->ring[uart->tail++];
   }
   uart->taken_count += count;
+  if (uart->on_take != NULL) {
+    uart->on_take(uart->context, dst, count);
+  }
 }
 
 uint8_t dxl_link_port_sniff_state(void *port) { return ((fake_uart_t *)port)->sniff; }
@@ -200,6 +203,9 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
   char text[16];
   snprintf(text, sizeof text, "baud=%u ", baud_register);
   fake_uart_log(uart, text);
+  if (uart->on_baud != NULL) {
+    uart->on_baud(uart->context, baud_register);
+  }
 }
 
 #if DXL_HAS_BOOTLOADER

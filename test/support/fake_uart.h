@@ -53,8 +53,11 @@ struct fake_uart {
   unsigned store_count;
   char log[FAKE_UART_LOG_BYTES];
   bool log_full;
-  /* Optional hooks: a store (after it is recorded) and a packet handled. */
+  /* Optional hooks: bytes the link takes from the ring (count may be 0: an empty batch), a
+   * store and a new baud (each after it is recorded), a packet handled. */
+  void (*on_take)(void *context, const uint8_t *bytes, uint8_t count);
   void (*on_store)(void *context, const uint8_t *table);
+  void (*on_baud)(void *context, uint8_t baud_register);
   void (*on_handled)(void *context, dxl_find_result_t found, const uint8_t *bytes, uint16_t length,
                      const dxl_response_t *response);
   void *context;
