@@ -79,8 +79,10 @@ dxl_find_result_t dxl_finder_next(dxl_finder_t *finder, dxl_packet_t *packet);
 
 /* Ends the bytes held so far if no byte came for more than DXL_PACKET_GAP_TIMEOUT_MS, and
  * returns true when it did: call dxl_finder_next() afterwards until it returns DXL_FIND_NONE
- * (a packet hidden in them is found now, not when the next byte comes). Call it now and then
- * while idle (the gap is also checked on every push). */
+ * (a packet hidden in them is found now, not when the next byte comes), before the next poll
+ * or push (which polls): the finder marks one gap, and another one marked before then moves
+ * the mark past the bytes between the two. Call it now and then while idle (the gap is also
+ * checked on every push). */
 bool dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms);
 
 /* True when the finder holds nothing and is not in a Protocol 2.0 frame: the next byte

@@ -297,8 +297,13 @@ void dxl_link_tick(dxl_link_t *link, dxl_servo_t *servo, uint16_t now_ms) {
   const uint8_t sniff = dxl_link_port_sniff_state(link->port);
   sniff_timeout(link, servo, sniff);
   quiet_timeout(link, sniff);
-  if (!link->armed && dxl_finder_poll(&link->finder, now_ms)) {
-    link->finder_dirty = true; /* rescan what came before the gap */
+  /* Not while a rescan is pending (bytes pushed or a result taken, replies holding up the
+   * rest): the finder marks one gap, and a poll then could move the mark past bytes that came
+   * after it, joining them to the bytes before it (docs/policy.md: no packet spans a gap).
+   * No byte is pushed before the rescan is done (the armed path's go into a finder with
+   * nothing to rescan), so the gap is polled then, from the same last byte. */
+  if (!link->armed && !link->finder_dirty) {
+    link->finder_dirty = dxl_finder_poll(&link->finder, now_ms); /* rescan what came before the gap */
   }
 }
 

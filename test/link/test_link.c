@@ -4,7 +4,8 @@
  * which order (a store at the commit, RESET's defaults and a new baud after the reply has
  * left), garbage and other servos' packets between ours, the ready PING reply's error byte,
  * and the RX interrupt's sniff with the fake playing the interrupt: the armed path, another
- * servo's packet skipped, a header or a skip that stops ended by the 100 ms gap. Built once per
+ * servo's packet skipped, a header or a skip that stops ended by the 100 ms gap; no packet
+ * across a gap while replies hold up the rescan of the bytes before it. Built once per
  * behaviour profile (DXL_PROFILE). Bytes arrive 10 us apart (1 Mbps). */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -672,6 +673,51 @@ static void test_a_header_or_a_skip_that_stops_ends_after_the_gap(void **state) 
   }
 }
 
+/* docs/policy.md "Framing and bus": no packet spans a gap of more than 100 ms, however late
+ * the rescan of the bytes before the gap runs. Before the gap: a garbage header whose LENGTH
+ * covers everything after it, a PING to this servo hidden behind it, and the first bytes of a
+ * WRITE to this servo. The rest of the WRITE comes in the millisecond the gap is crossed,
+ * before that millisecond's tick, with the push that marks the gap; the rescan finds the PING,
+ * whose reply is on the wire for longer than the gap again, and goes on after it: the WRITE's
+ * two halves are not one packet. */
+static void test_no_packet_spans_a_gap_while_replies_hold_up_the_rescan_of_it(void **state) {
+  (void)state;
+  rig_up(false);
+  static const uint8_t garbage_header[] = {DXL_HEADER_BYTE, DXL_HEADER_BYTE, 2, 0x20};
+  uint8_t ping[PACKET_OVERHEAD];
+  const size_t ping_length = packet_encode(ping, FACTORY_ID, DXL_INST_PING, NULL, 0);
+  uint8_t write[DXL_PACKET_MAX_BYTES];
+  const uint8_t led_on[] = {CT_ADDR_LED, 1};
+  const size_t write_length = packet_encode(write, FACTORY_ID, DXL_INST_WRITE, led_on, sizeof led_on);
+  const size_t before_gap = PACKET_OFS_INSTRUCTION + 1u; /* FF FF ID LENGTH INSTRUCTION */
+  const size_t garbage_candidate = sizeof garbage_header + garbage_header[PACKET_OFS_LENGTH];
+  assert_true(sizeof garbage_header + ping_length + write_length < garbage_candidate);
+  for (size_t i = before_gap; i < write_length; i++) {
+    assert_int_not_equal(write[i], DXL_HEADER_BYTE); /* no header after the gap */
+  }
+  arrive(garbage_header, sizeof garbage_header);
+  arrive(ping, ping_length);
+  arrive(write, before_gap);
+  assert_int_equal(rig.handled_count, 0); /* the garbage header's candidate is still open */
+  tick_ms(DXL_PACKET_GAP_TIMEOUT_MS); /* a byte now would still be the candidate's */
+  rig.uart.now_us += 1000u;           /* the gap is crossed: the rest arrives before the tick */
+  for (size_t i = before_gap; i < write_length; i++) {
+    assert_true(fake_uart_receive(&rig.uart, write[i]));
+  }
+  run();
+  dxl_link_tick(&rig.link, &rig.servo, dxl_link_port_now_ms(&rig.uart)); /* then the tick */
+  assert_int_equal(rig.handled_count, 1);
+  assert_int_equal(rig.handled_instruction, DXL_INST_PING);
+  assert_int_equal(rig.uart.reply_state, DXL_LINK_REPLY_SENDING);
+  tick_ms(DXL_PACKET_GAP_TIMEOUT_MS + 1u); /* the PING's reply is still on the wire */
+  sent();
+  tick_ms(DXL_PACKET_GAP_TIMEOUT_MS + 1u);
+  assert_int_equal(rig.handled_count, 1);
+  assert_int_equal(rig.servo.table[CT_ADDR_LED], 0);
+  assert_int_equal(rig.uart.reply_state, DXL_LINK_REPLY_IDLE);
+  assert_int_equal(rig.link.finder.fill, 0);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_a_ping_is_answered_at_the_return_delay_time),
@@ -699,6 +745,7 @@ int main(void) {
       cmocka_unit_test(test_the_ready_ping_reply_is_rebuilt_when_its_error_byte_would_change),
       cmocka_unit_test(test_the_sniff_skips_another_servos_packet_between_two_of_ours),
       cmocka_unit_test(test_a_header_or_a_skip_that_stops_ends_after_the_gap),
+      cmocka_unit_test(test_no_packet_spans_a_gap_while_replies_hold_up_the_rescan_of_it),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
