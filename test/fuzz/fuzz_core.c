@@ -1365,10 +1365,10 @@ static void op_packet(world_t *w, input_t *in) {
     const uint8_t wait = take(in);
     const size_t split = take(in) % (count + 1u);
     receive(w, bytes, split);
-    pass_ms(w, wait);
+    pass_ms(w, wait); /* the rest taken in the pass that first sees the time passed */
+    receive(w, bytes + split, count - split);
     link_tick(w);
     run(w);
-    receive(w, bytes + split, count - split);
     break;
   }
   default: { /* FUZZ_DELIVER_EARLY */

@@ -53,15 +53,16 @@
  *               servo's else another given by the next byte, then L bytes)
  *   others      none
  * mode: bits 0-1 delivery (0 bytes, 1 one batch, 2 two batches with a wait of the next byte
- * in ms between, at the split given by the byte after it, 3 the sniff: a packet the RX
- * interrupt would arm, while the link is idle, goes through the armed path, any other in one
- * batch); bit 2 bad checksum (xor with the next byte | 1); bits 3-4 extra leading 0xFF bytes;
- * bit 5 replies take time: the next byte is how many ms pass between a reply's start and its
- * end (ticks and EEPROM writes run, what follows the reply waits); bit 6, with delivery 3: the
- * checksum comes the next byte in ms late, with the link's tick and passes every ms (the link
- * gives the armed reply up after 3 ms). A PACKET's bytes in order: sel, mode, the ID (id
- * GIVEN), the instruction (GIVEN), the parameters, the checksum xor (bit 2), the reply time
- * (bit 5), the split's wait and place (delivery 2), the checksum's delay (bit 6, delivery 3). */
+ * in ms and one link tick between, at the split given by the byte after it, the second taken
+ * by passes before that tick, 3 the sniff: a packet the RX interrupt would arm, while the link
+ * is idle, goes through the armed path, any other in one batch); bit 2 bad checksum (xor with
+ * the next byte | 1); bits 3-4 extra leading 0xFF bytes; bit 5 replies take time: the next
+ * byte is how many ms pass between a reply's start and its end (ticks and EEPROM writes run,
+ * what follows the reply waits); bit 6, with delivery 3: the checksum comes the next byte in
+ * ms late, with the link's tick and passes every ms (the link gives the armed reply up after
+ * 3 ms). A PACKET's bytes in order: sel, mode, the ID (id GIVEN), the instruction (GIVEN), the
+ * parameters, the checksum xor (bit 2), the reply time (bit 5), the split's wait and place
+ * (delivery 2), the checksum's delay (bit 6, delivery 3). */
 #ifndef FUZZ_OPS_H
 #define FUZZ_OPS_H
 

@@ -377,5 +377,18 @@ int main(int argc, char **argv) {
   read_(OWN, EARLY | FUZZ_MODE_EXTRA_FF(3), 24, 10);
   save("early_extra_ff");
 
+  start_one(1);
+  /* a gap crossed by bytes that come before the tick of its millisecond, and the rescan of the
+   * bytes before it held up by a reply longer than the gap: another servo's packet (LENGTH 16)
+   * holds a PING of this servo and a WRITE of LED 1 whose first 5 bytes come before the gap;
+   * the PING's reply takes 150 ms. The WRITE's halves are not one packet (docs/policy.md
+   * "Framing and bus") */
+  bytes(5, FUZZ_OP_PACKET, FUZZ_SEL(FUZZ_ID_NEIGHBOUR, FUZZ_INST_GIVEN) | FUZZ_SEL_RAW_PARAMS,
+        FUZZ_DELIVER_SPLIT | FUZZ_MODE_REPLY_TIME, 0x00, 14);
+  bytes(14, 0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB, 0xFF, 0xFF, 0x01, 0x04, 0x03, 0x19, 0x01, 0xDD);
+  bytes(3, 150, 101, 16); /* the reply's 150 ms; the gap, 101 ms, after 16 of the 20 bytes */
+  ping(OWN, BATCH);
+  save("gap_during_reply");
+
   return 0;
 }
