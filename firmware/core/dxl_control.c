@@ -93,9 +93,8 @@ int16_t dxl_control_compliance_drive(int16_t error_counts, uint8_t cw_margin, ui
 }
 
 /* Writes value to a Present Speed / Load item: magnitude (at most 1023) in bits 0..9, bit 10
- * set when negative (CW). Inlined: one copy for both items would save 32 B of flash but cost
- * the tick 20 cycles of calls (ATmega88, measured); Present Load is now written from the
- * drive's magnitude, which is cheaper still. */
+ * set when negative (CW). Present Speed's only writer (Present Load is written from the drive's
+ * magnitude, which is cheaper). */
 static void set_signed_item(uint8_t *item, int16_t value) {
   uint16_t magnitude = (uint16_t)value;
   uint8_t direction_high = 0;

@@ -1,4 +1,4 @@
-/* The fuzzed core (issue #15): a libFuzzer harness that runs one servo's core behind the
+/* The fuzzed core: a libFuzzer harness that runs one servo's core behind the
  * firmware's own link layer (firmware/link/dxl_link.c and dxl_after.c) on the fake UART of the
  * host tests (test/support/fake_uart.h), from a script decoded from the input (fuzz_ops.h),
  * and checks after every operation what must always hold. A violation prints what broke and
