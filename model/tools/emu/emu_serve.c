@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The serve loop (contract in emu_serve.h): the world with its servos (emu_state_files.h) on
- * their plants, the pty bridge, the bus log, the control socket and the dashboard, the debug
- * session (emu_debug_session.h) opened; the boot until every servo listens; then runs of the
+ * their plants, the pty bridge, the bus log, the control socket and the dashboard, the trace and
+ * gdb (emu_debug_tools.h) opened; the boot until every servo listens; then runs of the
  * world of at most SLICE_US, cut at the next client byte, adapter hand-over or control event,
  * each followed by the pty, the control socket and the bus log, and paced (pacing.h); at a stop
  * signal (emu_stop_signal.h) the settling, the state files, the trace, the statistics
@@ -13,7 +13,7 @@
 #include "emu_bus_log.h"
 #include "emu_control.h"
 #include "emu_dashboard.h"
-#include "emu_debug_session.h"
+#include "emu_debug_tools.h"
 #include "emu_state_files.h"
 #include "emu_stats.h"
 #include "emu_stop_signal.h"
@@ -112,7 +112,7 @@ int emu_serve(const serve_options_t *o) {
     fprintf(stderr, "ax12-emu: dashboard at %s\n", dashboard.url);
   }
 
-  emu_debug_session_t debug;
+  emu_debug_tools_t debug;
   if (!emu_debug_open(&debug, world, o, err, sizeof(err))) {
     fprintf(stderr, "ax12-emu: %s\n", err);
     emu_debug_close_gdb(&debug);

@@ -271,8 +271,8 @@ def test_a_gdb_port_in_use_is_refused_with_one_line(tmp_path):
 
 
 def test_a_refused_gdb_port_closes_the_control_socket_and_the_dashboard(tmp_path):
-    """The debug session opens after the control socket and the dashboard: when it is refused,
-    the emulator stops the dashboard's process and removes its socket before it exits."""
+    """gdb's port is opened after the control socket and the dashboard: when it is refused, the
+    emulator stops the dashboard's process and removes its socket before it exits."""
     def dashboards():
         found = set()
         for pid in os.listdir("/proc"):

@@ -11,8 +11,8 @@
  *   real-time pacing starts again from there.
  * - The gdb port is closed before the shutdown's settling (a held servo runs on), the trace
  *   after it (its last events included). */
-#ifndef EMU_DEBUG_SESSION_H
-#define EMU_DEBUG_SESSION_H
+#ifndef EMU_DEBUG_TOOLS_H
+#define EMU_DEBUG_TOOLS_H
 
 #include <stdbool.h>
 #include <stddef.h>
@@ -32,26 +32,26 @@ typedef struct {
   double trace_flush_at_us; /* wall clock */
   servo_gdb_t gdb;
   bool gdb_open;
-} emu_debug_session_t;
+} emu_debug_tools_t;
 
 /* Opens the trace and the gdb port the options ask for (neither: nothing), with one line each
  * on stderr. False with err set; whatever was opened is then closed by emu_debug_close_gdb and
  * emu_debug_close_trace(d, world, false). */
-bool emu_debug_open(emu_debug_session_t *d, world_t *world, const serve_options_t *o, char *err, size_t err_len);
+bool emu_debug_open(emu_debug_tools_t *d, world_t *world, const serve_options_t *o, char *err, size_t err_len);
 
 /* After each run of the world: the trace's final events, on disk every EMU_DEBUG_TRACE_FLUSH_US;
  * gdb's requests, without waiting. */
-void emu_debug_after_run(emu_debug_session_t *d);
+void emu_debug_after_run(emu_debug_tools_t *d);
 
 /* While gdb holds the world: serves gdb alone until it lets go or a stop is asked, then resumes
  * pacing at the world's time. Returns at once when gdb does not hold it. */
-void emu_debug_wait_while_held(emu_debug_session_t *d, world_t *world, pacing_t *pacing);
+void emu_debug_wait_while_held(emu_debug_tools_t *d, world_t *world, pacing_t *pacing);
 
 /* Closes the gdb port, if open (a held servo runs on). */
-void emu_debug_close_gdb(emu_debug_session_t *d);
+void emu_debug_close_gdb(emu_debug_tools_t *d);
 
 /* Writes the rest of the trace, if any, and closes it (one line on stderr when `report`).
  * False when the file could not be written whole (said on stderr). */
-bool emu_debug_close_trace(emu_debug_session_t *d, const world_t *world, bool report);
+bool emu_debug_close_trace(emu_debug_tools_t *d, const world_t *world, bool report);
 
 #endif

@@ -1,5 +1,5 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
-#include "emu_debug_session.h"
+#include "emu_debug_tools.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -15,7 +15,7 @@ static size_t servo_index_of(const serve_options_t *o, uint8_t id) {
   return 0; /* the parser checked every ID against --ids */
 }
 
-bool emu_debug_open(emu_debug_session_t *d, world_t *world, const serve_options_t *o, char *err, size_t err_len) {
+bool emu_debug_open(emu_debug_tools_t *d, world_t *world, const serve_options_t *o, char *err, size_t err_len) {
   memset(d, 0, sizeof(*d));
   if (o->trace_path) {
     bool traced[WORLD_MAX_SERVOS];
@@ -51,7 +51,7 @@ bool emu_debug_open(emu_debug_session_t *d, world_t *world, const serve_options_
   return true;
 }
 
-void emu_debug_after_run(emu_debug_session_t *d) {
+void emu_debug_after_run(emu_debug_tools_t *d) {
   if (d->trace) {
     world_trace_commit(d->trace);
     const double wall = pacing_wall_us();
@@ -65,7 +65,7 @@ void emu_debug_after_run(emu_debug_session_t *d) {
   }
 }
 
-void emu_debug_wait_while_held(emu_debug_session_t *d, world_t *world, pacing_t *pacing) {
+void emu_debug_wait_while_held(emu_debug_tools_t *d, world_t *world, pacing_t *pacing) {
   if (!d->gdb_open || !world_held(world)) {
     return;
   }
@@ -80,14 +80,14 @@ void emu_debug_wait_while_held(emu_debug_session_t *d, world_t *world, pacing_t 
   pacing_resume(pacing, world->now);
 }
 
-void emu_debug_close_gdb(emu_debug_session_t *d) {
+void emu_debug_close_gdb(emu_debug_tools_t *d) {
   if (d->gdb_open) {
     servo_gdb_close(&d->gdb);
     d->gdb_open = false;
   }
 }
 
-bool emu_debug_close_trace(emu_debug_session_t *d, const world_t *world, bool report) {
+bool emu_debug_close_trace(emu_debug_tools_t *d, const world_t *world, bool report) {
   if (!d->trace) {
     return true;
   }
