@@ -120,6 +120,14 @@ void ax12_plant_init(ax12_plant_t *plant, const ax12_plant_params_t *params)
     refresh(plant);
 }
 
+void ax12_plant_init_on_supply(ax12_plant_t *plant, double source_v, double source_r_ohm)
+{
+    ax12_plant_params_t p = ax12_plant_params_default();
+    p.supply.source_v = source_v;
+    p.supply.source_r_ohm = source_r_ohm;
+    ax12_plant_init(plant, &p);
+}
+
 /* One implicit sub-step of the output's motion, h seconds. Returns the
  * friction heat in J. Coulomb friction with a stuck state: a shaft at rest
  * stays exactly at rest while the net torque is within breakaway friction;

@@ -56,6 +56,9 @@ ax12_plant_params_t ax12_plant_params_default(void);
  * params NULL = ax12_plant_params_default(). */
 void ax12_plant_init(ax12_plant_t *plant, const ax12_plant_params_t *params);
 
+/* ax12_plant_init() with the default parameters but the supply: source_v behind source_r_ohm. */
+void ax12_plant_init_on_supply(ax12_plant_t *plant, double source_v, double source_r_ohm);
+
 /* Advance by dt_s (any value up to 1 ms is accurate; larger is stable) with the
  * H-bridge at duty (clamped to -1..+1; NaN = 0). The motor sees duty x terminal
  * voltage on average; duty exactly 0 opens the motor terminals (coast, no current).

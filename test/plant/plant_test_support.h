@@ -33,11 +33,8 @@
 /* A servo at rest at 150 deg on a supply of source_v behind source_r_ohm, 25 degC. */
 static inline ax12_plant_t given_servo(double source_v, double source_r_ohm)
 {
-    ax12_plant_params_t p = ax12_plant_params_default();
-    p.supply.source_v = source_v;
-    p.supply.source_r_ohm = source_r_ohm;
     ax12_plant_t plant;
-    ax12_plant_init(&plant, &p);
+    ax12_plant_init_on_supply(&plant, source_v, source_r_ohm);
     return plant;
 }
 
