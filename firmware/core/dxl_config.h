@@ -19,6 +19,16 @@
 #define DXL_HAS_BOOTLOADER 0
 #endif
 
+/* 1 on the host: the link layer reports each packet it handled to dxl_link_port_handled()
+ * (the tests' observers, the conformance log). The firmware has no observer. */
+#ifndef DXL_LINK_OBSERVER
+#if defined(__AVR__)
+#define DXL_LINK_OBSERVER 0
+#else
+#define DXL_LINK_OBSERVER 1
+#endif
+#endif
+
 /* 1 in the bootloader's build: dxl_crc16_update() through avr-libc (dxl_image.c). */
 #ifndef DXL_CRC16_AVR_LIBC
 #define DXL_CRC16_AVR_LIBC 0
