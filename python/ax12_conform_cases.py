@@ -143,8 +143,21 @@ class Case:
 
     def differ(self, step, note, **fields):
         """A difference at step: note says it in words; fields (sent, expected, heard, bytes) give
-        the bytes when there are any."""
+        the bytes when there are any. The differences stay in the order of the steps (a reply's
+        timing is known after the case has run)."""
         self.differences.append(dict(fields, step=step, note=note))
+        self.differences.sort(key=lambda d: step_order(d["step"]))
+
+
+def step_order(label):
+    """The place of a step label in its case: "round 2, step 3" after "round 1, table after";
+    in a round the preparation, then the steps, then the table read back."""
+    m = re.match(r"^(?:round (\d+), )?(preparation|step (\d+)|table after)", label)
+    if not m:
+        return (0, 0, 0)
+    kind = m.group(2)
+    phase = 0 if kind.startswith("preparation") else 2 if kind == "table after" else 1
+    return (int(m.group(1) or 0), phase, int(m.group(3) or 0))
 
 
 def classify(case, profile):

@@ -630,7 +630,7 @@ class Conform:
         for item in T.ITEMS:
             addr = item.addr
             if addr in PRESENT | DEVICE_OWN | loose or access(item, self.profile) == "NONE" or \
-                    addr in (T.ID, T.BAUD_RATE):
+                    addr in (T.ID, T.BAUD_RATE) or addr in self.conflicts:  # a conflict is named once
                 continue
             if addr == T.STATUS_RETURN_LEVEL and srl_changed:
                 continue
