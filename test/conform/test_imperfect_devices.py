@@ -25,7 +25,7 @@ import re
 import pytest
 
 import ax12_table as T
-from conftest import R, conform, foreign, records, run_report
+from conftest import R, foreign, records, run_report
 
 
 def blocks(stdout):
