@@ -116,13 +116,19 @@ bool elf_check_avr(const char *path, const char *mcu, char *err, size_t err_len)
   return true;
 }
 
-bool elf_flash_has_word(const char *path, uint16_t word) {
+/* elf_open_avr for a question whose answer is "no" when the file cannot be read. */
+static FILE *open_for_a_question(const char *path, Elf32_Ehdr *h) {
   char err[160];
+  return elf_open_avr(path, h, err, sizeof err);
+}
+
+bool elf_flash_has_word(const char *path, uint16_t word) {
   Elf32_Ehdr h;
-  FILE *f = elf_open_avr(path, &h, err, sizeof err);
+  FILE *f = open_for_a_question(path, &h);
   if (!f) {
     return false;
   }
+  char err[160];
   bool found = false;
   for (unsigned i = 0; i < h.e_phnum && !found; i++) {
     Elf32_Phdr ph;
@@ -148,9 +154,8 @@ bool elf_flash_has_word(const char *path, uint16_t word) {
 }
 
 bool elf_has_section(const char *path, const char *name) {
-  char err[160];
   Elf32_Ehdr h;
-  FILE *f = elf_open_avr(path, &h, err, sizeof err);
+  FILE *f = open_for_a_question(path, &h);
   if (!f) {
     return false;
   }

@@ -399,14 +399,18 @@ typedef struct {
 #define RANGE_CASES_MAX (RANGE_BOUNDS * POL_ITEM_COUNT)
 static range_case_t range_cases[RANGE_CASES_MAX];
 
+/* The record of a write-range case of item: its rule is the item's range, then rule_tail. */
+static void begin_range_record(const char *name, const pol_item_t *item, const char *rule_tail) {
+  char rule[224];
+  snprintf(rule, sizeof rule, "%s: write range %u..%u. %s", item->name, item->min, item->max, rule_tail);
+  conformance_begin("write ranges", name, CONFORMANCE_POLICY, "Control table; Instructions and their errors", rule);
+}
+
 static int range_case_setup(void **state) {
   const range_case_t *c = *state;
-  char rule[192];
-  snprintf(rule, sizeof rule,
-           "%s: write range %u..%u. Out-of-range value, read-only or reserved address, or a window past 49: Range "
-           "Error and nothing is written.",
-           c->item->name, c->item->min, c->item->max);
-  conformance_begin("write ranges", c->name, CONFORMANCE_POLICY, "Control table; Instructions and their errors", rule);
+  begin_range_record(c->name, c->item,
+                     "Out-of-range value, read-only or reserved address, or a window past 49: Range Error and "
+                     "nothing is written.");
   conformance_fact_int("address", c->item->addr);
   conformance_fact_str("item", c->item->name);
   conformance_fact_int("bytes", c->item->size_bytes);
@@ -464,12 +468,9 @@ static byte_case_t byte_cases[BYTE_CASES_MAX];
 
 static int byte_case_setup(void **state) {
   const byte_case_t *c = *state;
-  char rule[224];
-  snprintf(rule, sizeof rule,
-           "%s: write range %u..%u. One byte of a 16-bit item may be written alone; the range check applies to "
-           "the 16-bit value that results.",
-           c->item->name, c->item->min, c->item->max);
-  conformance_begin("write ranges", c->name, CONFORMANCE_POLICY, "Control table; Instructions and their errors", rule);
+  begin_range_record(c->name, c->item,
+                     "One byte of a 16-bit item may be written alone; the range check applies to the 16-bit value "
+                     "that results.");
   conformance_fact_str("kind", "byte");
   conformance_fact_int("address", c->item->addr + (c->high ? 1 : 0));
   conformance_fact_str("item", c->item->name);
