@@ -14,7 +14,10 @@ EEPROM area (ax12_conform_keeper.py). What it finds beyond the cases' own differ
 - leaks: an item a case changed that its record leaves alone, named by address, and named
   again (with the case that left it) where a later case reads it.
 """
+import sys
 import time
+
+import serial  # pyserial
 
 import ax12_conformance_records as R
 import ax12_packets as P
@@ -39,7 +42,8 @@ class Interrupted(Exception):
 
 
 class CaseAbandoned(Exception):
-    """The device went silent during a case and was found again: the rest of the case is not run."""
+    """The device went silent or moved during a case and was found again: the rest of the case is
+    not run."""
 
 
 class DeviceLost(Exception):
@@ -66,7 +70,6 @@ class Conform:
         self.stopped = None  # why the run stopped before its end
 
     def say(self, text):
-        import sys
         print(text, file=sys.stderr, flush=True)
 
     def verbose(self, text):
@@ -194,7 +197,6 @@ class Conform:
         """Restores everything at the end (also after an interruption or an error)."""
         if self.original is None or self.port is None:
             return True
-        import serial
         try:
             self.port.drain()
             try:
@@ -253,7 +255,7 @@ class Conform:
         if not self.keeper.restore(final=False):
             raise DeviceLost("the device came back during '%s' but its settings could not be written back" % case.name)
         case.differ(label, note, silence=found == expected)
-        raise CaseAbandoned()
+        raise CaseAbandoned(label)
 
     # -- one case --
 
@@ -346,10 +348,16 @@ class Conform:
                         raise DeviceLost("the device could not be found again after '%s', or its settings not "
                                          "written back" % case.name)
                 break
-            except CaseAbandoned:
-                if attempt == 1 and case.differences and case.differences[-1]["step"].endswith("preparation"):
-                    # silent before the case began: it is run again now the device is back
-                    case.notes.append("run again after the device came back: %s" % case.differences.pop()["note"])
+            except CaseAbandoned as abandoned:
+                label = abandoned.args[0]
+                if attempt == 1 and label.endswith("preparation"):
+                    # lost before its steps began: run again from the start now the device is back
+                    why = [d["note"] for d in case.differences if d["step"] == label]
+                    case.notes.append("run again from the start: %s" % "; ".join(why))
+                    case.differences, case.timings = [], []
+                    self.timer.forget(case)
+                    if self.silences and self.silences[-1]["case"] == "%s / %s" % (case.group, case.name):
+                        self.silences[-1]["cost"] = "nothing (the case ran again once the device was back)"
                     continue
                 break
         if case.differences:
@@ -419,7 +427,7 @@ class Conform:
             if back is None:
                 self.check_silence(case, label, "the whole case")
                 case.differ(label + ", table read back", "the device answers a PING but no READ of its table")
-                raise CaseAbandoned()
+                raise CaseAbandoned(label + ", table read back")
             for addr, value in wanted:
                 item = T.BY_ADDR[addr]
                 if addr not in self.conflicts and back[addr:addr + item.size] != value:
