@@ -46,15 +46,57 @@ static bool read_settings(harness_t *h, uint8_t id, uint8_t area[CT_EEPROM_SIZE]
   return true;
 }
 
+/* After any run of the world: when the firmware has written an EEPROM byte since *writes (one
+ * at most: they are 3.4 ms apart), copies the EEPROM to next and returns the address that
+ * byte changed (last: the EEPROM before it); EEPROM_BYTES when none was written. */
+static size_t captured_write(const servo_t *servo, uint64_t *writes, const uint8_t *last, uint8_t *next) {
+  if (servo->eeprom_writes == *writes) {
+    return EEPROM_BYTES;
+  }
+  assert_int_equal(servo->eeprom_writes, *writes + 1u);
+  *writes = servo->eeprom_writes;
+  memcpy(next, servo->eeprom, EEPROM_BYTES);
+  size_t addr = 0;
+  while (addr < EEPROM_BYTES && next[addr] == last[addr]) {
+    addr++;
+  }
+  assert_true(addr < EEPROM_BYTES);
+  return addr;
+}
+
+/* Saves eeprom as servo 1's state file in a new directory (its path to dir). */
+static void save_state(char *dir, size_t dir_len, const uint8_t *eeprom) {
+  harness_tempdir(dir, dir_len);
+  char path[512];
+  char err[256];
+  eeprom_store_path(path, sizeof path, dir, 1);
+  assert_int_equal(eeprom_store_save(path, eeprom, EEPROM_BYTES, err, sizeof err), 0);
+}
+
+/* torn: eeprom as a cut in the write of byte k of last (EEPROM address addr) leaves it, the
+ * byte at torn_values[t]; what: the cut in words. */
+static void tear(const uint8_t *eeprom, size_t addr, size_t t, size_t k, size_t last, uint8_t torn[EEPROM_BYTES],
+                 char *what, size_t what_len) {
+  memcpy(torn, eeprom, EEPROM_BYTES);
+  torn[addr] = torn_values[t];
+  snprintf(what, what_len, "cut in EEPROM byte %zu of %zu (EEPROM %zu left at 0x%02X)", k, last, addr, torn_values[t]);
+}
+
+/* A servo at ID 1, 1 Mbps, with its state file in dir, booted. */
+static servo_t *boot_servo(harness_t *h, const char *dir) {
+  harness_open(h, "ax12", MCU, 1);
+  servo_t *servo = harness_add_servo(h, 1, 1, dir);
+  harness_boot(h, 5);
+  return servo;
+}
+
 /* A servo at ID 1, 1 Mbps, with a state file in dir: boots, gets the setup packets, then the
  * packet under test, while every byte the firmware writes to its EEPROM is captured. */
 static void capture_write(const char *dir, const uint8_t *setup, size_t setup_len, const uint8_t *packet,
                           size_t packet_len, captures_t *c, uint8_t before[CT_EEPROM_SIZE],
                           uint8_t after[CT_EEPROM_SIZE], uint8_t after_id, uint8_t after_baud) {
   harness_t h;
-  harness_open(&h, "ax12", MCU, 1);
-  servo_t *servo = harness_add_servo(&h, 1, 1, dir);
-  harness_boot(&h, 5);
+  servo_t *servo = boot_servo(&h, dir);
   uint8_t reply[64];
   if (setup_len) {
     (void)harness_exchange(&h, setup, setup_len, STATUS_LEN(0), reply, sizeof reply);
@@ -69,18 +111,10 @@ static void capture_write(const char *dir, const uint8_t *setup, size_t setup_le
   const sim_cycles_t end = h.world->now + sim_ms(200);
   while (h.world->now < end) {
     world_run_until(h.world, h.world->now + sim_us(20));
-    if (servo->eeprom_writes != writes) {
-      assert_int_equal(servo->eeprom_writes, writes + 1u); /* 3.4 ms apart: one at a time */
-      writes = servo->eeprom_writes;
-      assert_true(c->count < MAX_CAPTURES);
-      memcpy(c->bytes[c->count], servo->eeprom, EEPROM_BYTES);
-      size_t addr = 0;
-      while (addr < EEPROM_BYTES && c->bytes[c->count][addr] == c->bytes[c->count - 1u][addr]) {
-        addr++;
-      }
-      assert_true(addr < EEPROM_BYTES);
-      c->written_addr[c->count] = addr;
-      c->count++;
+    assert_true(c->count < MAX_CAPTURES);
+    const size_t addr = captured_write(servo, &writes, c->bytes[c->count - 1u], c->bytes[c->count]);
+    if (addr < EEPROM_BYTES) {
+      c->written_addr[c->count++] = addr;
     }
   }
   assert_true(c->count > 3u); /* at least a data byte, the check and the sequence number */
@@ -93,11 +127,7 @@ static void capture_write(const char *dir, const uint8_t *setup, size_t setup_le
 static int boot_from(const uint8_t *eeprom, const uint8_t before[CT_EEPROM_SIZE], const uint8_t after[CT_EEPROM_SIZE],
                      const char *what) {
   char dir[256];
-  harness_tempdir(dir, sizeof dir);
-  char path[512];
-  char err[256];
-  eeprom_store_path(path, sizeof path, dir, 1);
-  assert_int_equal(eeprom_store_save(path, eeprom, EEPROM_BYTES, err, sizeof err), 0);
+  save_state(dir, sizeof dir, eeprom);
   int result = -1;
   for (int which = 0; which < 2 && result < 0; which++) {
     /* Asked at the old ID and baud, then at the new ones. */
@@ -155,10 +185,7 @@ static unsigned cut_everywhere(const uint8_t *setup, size_t setup_len, const uin
     }
     for (size_t t = 0; t < sizeof torn_values; t++) {
       uint8_t torn[EEPROM_BYTES];
-      memcpy(torn, c.bytes[k], EEPROM_BYTES);
-      torn[c.written_addr[k]] = torn_values[t];
-      snprintf(what, sizeof what, "cut in byte %zu of %zu (EEPROM %zu left at 0x%02X)", k, c.count - 1u,
-               c.written_addr[k], torn_values[t]);
+      tear(c.bytes[k], c.written_addr[k], t, k, c.count - 1u, torn, what, sizeof what);
       (void)boot_from(torn, before, after, what);
       cuts++;
     }
@@ -209,9 +236,7 @@ static void test_a_second_eeprom_write_during_a_store_is_stored_too(void **state
   char dir[256];
   harness_tempdir(dir, sizeof dir);
   harness_t h;
-  harness_open(&h, "ax12", MCU, 1);
-  servo_t *servo = harness_add_servo(&h, 1, 1, dir);
-  harness_boot(&h, 5);
+  servo_t *servo = boot_servo(&h, dir);
   uint8_t reply[64];
   uint8_t packet[16];
   size_t len = packet_encode(packet, 1, DXL_INST_WRITE, HP(CT_ADDR_RETURN_DELAY_TIME, 10, 0x00, 0x01));
@@ -309,11 +334,7 @@ static long stream_write_of(const stream_t *s, const uint8_t *settings, sim_cycl
 /* The EEPROM area a servo booted in simavr from eeprom answers with (ID 1, 1 Mbps throughout). */
 static void boot_and_read(const uint8_t *eeprom, uint8_t area[CT_EEPROM_SIZE], const char *what) {
   char dir[256];
-  harness_tempdir(dir, sizeof dir);
-  char path[512];
-  char err[256];
-  eeprom_store_path(path, sizeof path, dir, 1);
-  assert_int_equal(eeprom_store_save(path, eeprom, EEPROM_BYTES, err, sizeof err), 0);
+  save_state(dir, sizeof dir, eeprom);
   harness_t h;
   harness_open(&h, "ax12", MCU, 1);
   harness_add_servo(&h, 1, 1, dir);
@@ -332,9 +353,7 @@ static void run_stream(stream_t *s, uint8_t base[CT_EEPROM_SIZE]) {
   char dir[256];
   harness_tempdir(dir, sizeof dir);
   harness_t h;
-  harness_open(&h, "ax12", MCU, 1);
-  servo_t *servo = harness_add_servo(&h, 1, 1, dir);
-  harness_boot(&h, 5);
+  servo_t *servo = boot_servo(&h, dir);
   uint8_t reply[64];
   /* Return Delay Time 0 (the fastest stream) and CW 100, stored */
   assert_int_equal(harness_request(&h, 1, DXL_INST_WRITE, HP(CT_ADDR_RETURN_DELAY_TIME, 0, 100, 0), STATUS_LEN(0), reply),
@@ -367,19 +386,11 @@ static void run_stream(stream_t *s, uint8_t base[CT_EEPROM_SIZE]) {
     } else {
       world_run_until(h.world, h.world->now + sim_us(100));
     }
-    if (servo->eeprom_writes != writes) {
-      assert_int_equal(servo->eeprom_writes, writes + 1u); /* 3.4 ms apart: one at a time */
-      writes = servo->eeprom_writes;
-      assert_true(s->captures < STREAM_MAX_CAPTURES);
-      memcpy(s->eeprom[s->captures], servo->eeprom, EEPROM_BYTES);
-      size_t addr = 0;
-      while (addr < EEPROM_BYTES && s->eeprom[s->captures][addr] == s->eeprom[s->captures - 1u][addr]) {
-        addr++;
-      }
-      assert_true(addr < EEPROM_BYTES);
+    assert_true(s->captures < STREAM_MAX_CAPTURES);
+    const size_t addr = captured_write(servo, &writes, s->eeprom[s->captures - 1u], s->eeprom[s->captures]);
+    if (addr < EEPROM_BYTES) {
       s->written_addr[s->captures] = addr;
-      s->written_at[s->captures] = h.world->now;
-      s->captures++;
+      s->written_at[s->captures++] = h.world->now;
     }
   }
   harness_close(&h);
@@ -440,10 +451,7 @@ static void test_a_stream_of_writes_is_stored_within_100_ms_and_a_cut_anywhere_k
     }
     for (size_t t = 0; t < sizeof torn_values; t++) {
       uint8_t torn[EEPROM_BYTES];
-      memcpy(torn, s.eeprom[k], EEPROM_BYTES);
-      torn[s.written_addr[k]] = torn_values[t];
-      snprintf(what, sizeof what, "cut in EEPROM byte %zu of %zu (EEPROM %zu left at 0x%02X)", k, s.captures - 1u,
-               s.written_addr[k], torn_values[t]);
+      tear(s.eeprom[k], s.written_addr[k], t, k, s.captures - 1u, torn, what, sizeof what);
       const long torn_which = stream_write_of(&s, dxl_image_settings(torn), s.written_at[k], base, what);
       if (torn_which != which && torn_which != stream_write_of(&s, dxl_image_settings(s.eeprom[k - 1u]),
                                                                 s.written_at[k], base, what)) {
