@@ -71,18 +71,17 @@ typedef struct {
     bool coast;
     double r_winding_ohm;
     double ke_out_v_s;  /* back-EMF per output rad/s: Kt x N */
-    double clamp_v;     /* coast: back-EMF beyond which the diodes conduct */
+    double clamp_v;     /* coast: back-EMF beyond which the diodes conduct (driven: 0, unused) */
     loop_t driven_or_open;
     loop_t diodes_ccw;  /* coast, turning CCW beyond the clamp */
     loop_t diodes_cw;
 } loops_t;
 
-static void loop_through(const ax12_plant_t *plant, const loops_t *ls, double duty, double emf_v,
-                         loop_t *l)
+static void loop_through(const ax12_plant_t *plant, const loops_t *ls, double duty,
+                         double supply_v, double emf_v, loop_t *l)
 {
     const ax12_plant_params_t *p = &plant->params;
-    l->path = ax12_bridge_path(&p->bridge, duty, ax12_supply_terminal_v(&p->supply, 0.0),
-                               p->supply.source_r_ohm, emf_v);
+    l->path = ax12_bridge_path(&p->bridge, duty, supply_v, p->supply.source_r_ohm, emf_v);
     l->r_loop_ohm = ls->r_winding_ohm + l->path.r_ohm;
     l->d0_nm = l->path.open ? 0.0 : ls->ke_out_v_s * l->path.path_v / l->r_loop_ohm;
     l->d1_nm_s = l->path.open ? 0.0 : ls->ke_out_v_s * ls->ke_out_v_s / l->r_loop_ohm;
@@ -94,11 +93,12 @@ static void loops_at(const ax12_plant_t *plant, double duty, loops_t *ls)
     ls->coast = duty == 0.0;
     ls->r_winding_ohm = ax12_motor_resistance_ohm(&p->motor, plant->state.thermal.winding_c);
     ls->ke_out_v_s = p->motor.kt_nm_a * p->gearbox.ratio;
-    ls->clamp_v = ax12_bridge_clamp_v(&p->bridge, ax12_supply_terminal_v(&p->supply, 0.0));
-    loop_through(plant, ls, duty, 0.0, &ls->driven_or_open);
+    const double supply_v = ax12_supply_terminal_v(&p->supply, 0.0);
+    ls->clamp_v = ls->coast ? ax12_bridge_clamp_v(&p->bridge, supply_v) : 0.0;
+    loop_through(plant, ls, duty, supply_v, 0.0, &ls->driven_or_open);
     if (ls->coast) {
-        loop_through(plant, ls, duty, 2.0 * ls->clamp_v, &ls->diodes_ccw);
-        loop_through(plant, ls, duty, -2.0 * ls->clamp_v, &ls->diodes_cw);
+        loop_through(plant, ls, duty, supply_v, 2.0 * ls->clamp_v, &ls->diodes_ccw);
+        loop_through(plant, ls, duty, supply_v, -2.0 * ls->clamp_v, &ls->diodes_cw);
     }
 }
 
