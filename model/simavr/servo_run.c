@@ -68,7 +68,7 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
     if (__builtin_expect(servo->pc_cycles != NULL, 0)) {
       servo_profiled_step(servo);
     } else {
-      simavr_step_core(avr, until);
+      simavr_step_core(avr, servo->fast_core, until);
     }
     if (servo->probe_pc) {
       servo_probe_step(servo);

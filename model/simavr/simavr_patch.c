@@ -82,7 +82,7 @@ static void sleep_nothing(avr_t *avr, avr_cycle_count_t how_long) {
   (void)how_long;
 }
 
-static void run_one_step(avr_t *avr) { simavr_step_core(avr, 0); }
+static void run_one_step(avr_t *avr) { simavr_step_core(avr, NULL, 0); }
 
 void simavr_install_run_loop(avr_t *avr) {
   avr->sleep = sleep_nothing;

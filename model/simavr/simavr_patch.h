@@ -60,7 +60,7 @@ unsigned simavr_cancel_timers_of(struct avr_t *avr, const void *owner);
 
 /* ---- the run loop (avr->run, avr->sleep) ---- */
 
-/* Installs simavr_step_core(avr, 0) (simavr_patch_run.h) as the core's run callback and a
+/* Installs simavr_step_core(avr, NULL, 0) (simavr_patch_run.h) as the core's run callback and a
  * sleep callback that does nothing: the world paces itself, and servo_run.c moves a sleeping
  * core's clock itself (simavr's sleep would only jump the clock, one cycle late). */
 void simavr_install_run_loop(struct avr_t *avr);

@@ -8,6 +8,7 @@
 #include <sim_core.h>
 #include <sim_cycle_timers.h>
 
+#include "fast_core.h"
 #include "simavr_patch.h"
 #include "sim_time.h"
 
@@ -41,14 +42,15 @@ static inline void simavr_end_batches_at_timer_changes(avr_t *avr) { avr->run_cy
  * sets) the batch then ends after that instruction, and the next step bounds a new one. So a
  * batch ends at the first instruction boundary at or after the first cycle timer or `until`,
  * where an instruction-by-instruction loop would have stopped: the same cycles, fewer calls.
- * until = 0 runs one instruction. */
-static inline __attribute__((always_inline)) void simavr_step_core(avr_t *avr, sim_cycles_t until) {
+ * until = 0 runs one instruction. The batch runs in the fast core (fast_core.h) when the servo
+ * has one and no gdb is attached, else in simavr's avr_run_one(): the same instructions. */
+static inline __attribute__((always_inline)) void simavr_step_core(avr_t *avr, fast_core_t *core, sim_cycles_t until) {
   avr_flashaddr_t new_pc = avr->pc;
   if (avr->state == cpu_Running) {
     const avr_cycle_timer_slot_p first = avr->cycle_timers.timer;
     const sim_cycles_t end = first && first->when < until ? first->when : until;
     avr->run_cycle_count = end > avr->cycle ? end - avr->cycle : 1u;
-    new_pc = avr_run_one(avr);
+    new_pc = core && !avr->gdb ? fast_core_run(core, avr) : avr_run_one(avr);
   }
   const avr_cycle_timer_slot_p due = avr->cycle_timers.timer;
   if (due && due->when <= avr->cycle) { /* what avr_cycle_timer_process() checks first */
@@ -60,7 +62,11 @@ static inline __attribute__((always_inline)) void simavr_step_core(avr_t *avr, s
     return;
   }
   if ((avr->state == cpu_Running || avr->state == cpu_Sleeping) && avr->interrupt_state) {
-    avr_service_interrupts(avr);
+    if (core) {
+      fast_core_service_interrupts(avr);
+    } else {
+      avr_service_interrupts(avr);
+    }
   }
 }
 
