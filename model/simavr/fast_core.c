@@ -2,11 +2,13 @@
 #include "fast_core.h"
 
 #include <endian.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include <sim_avr.h>
 #include <sim_core.h>
+#include <sim_cycle_timers.h>
 #include <sim_interrupts.h>
 #include <sim_io.h>
 #include <sim_irq.h>
@@ -40,13 +42,16 @@ typedef enum {
 } fc_op_t;
 
 typedef struct {
-  uint16_t word; /* the flash word this entry was decoded from */
-  uint8_t op;    /* fc_op_t */
-  uint8_t d;     /* destination register, I/O data address, pointer pair */
-  uint8_t r;     /* source register, bit number, displacement */
-  uint8_t x;     /* immediate byte, bit mask, pointer register */
-  uint16_t k;    /* RJMP/RCALL: target (byte address); BRBS/BRBC: signed byte offset */
+  const void *handler; /* the interpreter's label for op */
+  uint16_t word;       /* the flash word this entry was decoded from */
+  uint8_t op;          /* fc_op_t */
+  uint8_t d;           /* destination register, I/O data address, pointer pair */
+  uint8_t r;           /* source register, bit number, displacement */
+  uint8_t x;           /* immediate byte, bit mask, pointer register */
+  uint16_t k;          /* RJMP/RCALL: target (byte address); BRBS/BRBC: signed byte offset */
 } fc_insn_t;
+
+_Static_assert(sizeof(fc_insn_t) == 16, "code[pc / 2] is found as code + pc * 8");
 
 struct fast_core {
   uint32_t words;   /* flash words covered */
@@ -68,7 +73,7 @@ static bool next_is_two_words(const avr_t *avr, uint32_t pc) {
 
 /* Decodes the word at byte address pc into e, as simavr 1.6's avr_run_one() dispatches it
  * (the same masks in the same order, so every word maps to what that core would execute). */
-static void decode(const avr_t *avr, fc_insn_t *e, uint32_t pc, uint16_t w) {
+static void decode_op(const avr_t *avr, fc_insn_t *e, uint32_t pc, uint16_t w) {
   memset(e, 0, sizeof(*e));
   e->word = w;
   e->op = OP_INVALID;
@@ -262,6 +267,14 @@ static void decode(const avr_t *avr, fc_insn_t *e, uint32_t pc, uint16_t w) {
   }
 }
 
+/* The interpreter's handler labels by fc_op_t (run(NULL, NULL, &table) hands them out). */
+typedef const void *const *fc_handlers_t;
+
+static void decode(const avr_t *avr, fc_insn_t *e, uint32_t pc, uint16_t w, fc_handlers_t handlers) {
+  decode_op(avr, e, pc, w);
+  e->handler = handlers[e->op];
+}
+
 /* ---- what leaves the core: simavr's I/O handlers and IRQs, SREG, its crash ---- */
 
 static inline void sreg_set(avr_t *avr, uint8_t flag, uint8_t v) {
@@ -329,6 +342,57 @@ static inline bool load_is_plain(const avr_t *avr, uint16_t addr, uint16_t ramen
   }
   const avr_io_addr_t io = AVR_DATA_TO_IO(addr);
   return addr != R_SREG && !avr->io[io].r.c && !avr->io[io].irq;
+}
+
+/* SREG's eight flag bytes from its value: byte i is bit i (filled by fast_core_new). */
+static uint64_t sreg_bytes_of[256];
+
+static pthread_once_t sreg_bytes_filled = PTHREAD_ONCE_INIT;
+
+static void fill_sreg_bytes(void) {
+  for (unsigned v = 0; v < 256; v++) {
+    uint64_t bytes = 0;
+    for (unsigned i = 0; i < 8; i++) {
+      bytes |= (uint64_t)((v >> i) & 1) << (8 * i);
+    }
+    sreg_bytes_of[v] = bytes;
+  }
+}
+
+/* A write to SREG with no I/O handler or IRQ on it, as simavr's _avr_set_r does it: the byte,
+ * the mirror (flag by flag, only I has a side effect: SEI's delay, or no interrupt), the byte. */
+static inline void sreg_write(avr_t *avr, uint8_t v) {
+  if (v & (1u << S_I)) {
+    if (!avr->sreg[S_I]) {
+      avr->interrupt_state = -2;
+    }
+  } else {
+    avr->interrupt_state = 0;
+  }
+  memcpy(avr->sreg, &sreg_bytes_of[v], 8);
+  avr->data[R_SREG] = v;
+}
+
+static inline bool sreg_write_is_plain(const avr_t *avr) {
+  const avr_io_addr_t io = AVR_DATA_TO_IO(R_SREG);
+  return !avr->io[io].w.c && !avr->io[io].irq;
+}
+
+/* A read of SREG: its value from the mirror (simavr: a flag byte above 1 reads as 0). */
+static inline uint8_t sreg_read(avr_t *avr) {
+  uint64_t bytes;
+  memcpy(&bytes, avr->sreg, 8);
+  uint8_t v;
+  if (__builtin_expect((bytes & ~0x0101010101010101ull) == 0, 1)) {
+    v = (uint8_t)((bytes * 0x0102040810204080ull) >> 56); /* bit i = byte i */
+  } else {
+    v = 0;
+    for (int i = 0; i < 8; i++) {
+      v |= (uint8_t)((avr->sreg[i] == 1) << i);
+    }
+  }
+  avr->data[R_SREG] = v;
+  return v;
 }
 
 /* simavr 1.6's _avr_set_ram for the other stores: SREG (its mirror and the interrupt state),
@@ -485,17 +549,7 @@ static void push_return(avr_t *avr, uint32_t pc) {
   }
 }
 
-void fast_core_service_interrupts(avr_t *avr) {
-  if (!avr->sreg[S_I] || !avr->interrupt_state) {
-    return;
-  }
-  if (avr->interrupt_state < 0) { /* the instructions after SEI or RETI */
-    avr->interrupt_state++;
-    if (avr->interrupt_state == 0) {
-      avr->interrupt_state = (int8_t)pending_count(avr);
-    }
-    return;
-  }
+void fast_core_enter_interrupt(avr_t *avr) {
   avr_int_table_p table = &avr->interrupts;
   const int count = avr_int_pending_get_read_size(&table->pending);
   int lowest = 0xff, at = 0;
@@ -552,7 +606,7 @@ static void interrupt_return(avr_t *avr) {
  * ends at check:, where the run and interrupt state are tested as simavr's loop tests them
  * after every instruction. A plain instruction can change neither. */
 
-uint32_t fast_core_run(fast_core_t *core, avr_t *avr) {
+static uint32_t run(fast_core_t *core, avr_t *avr, avr_cycle_count_t until, fc_handlers_t *table) {
   static const void *const handlers[OP_COUNT] = {
       [OP_NOP] = &&op_nop, [OP_INVALID] = &&op_invalid,
       [OP_ADD] = &&op_add, [OP_ADC] = &&op_adc, [OP_SUB] = &&op_sub, [OP_SBC] = &&op_sbc,
@@ -582,6 +636,10 @@ uint32_t fast_core_run(fast_core_t *core, avr_t *avr) {
       [OP_EICALL] = &&op_eijmp, [OP_RET] = &&op_ret, [OP_RETI] = &&op_reti,
       [OP_SLEEP] = &&op_sleep, [OP_BREAK] = &&op_break, [OP_WDR] = &&op_wdr, [OP_SPM] = &&op_spm,
   };
+  if (table) {
+    *table = handlers;
+    return 0;
+  }
   uint8_t *const data = avr->data;
   uint8_t *const s = avr->sreg;
   const uint8_t *const flash = avr->flash;
@@ -603,6 +661,9 @@ uint32_t fast_core_run(fast_core_t *core, avr_t *avr) {
     const uint8_t v_ = (uint8_t)(v_expr);                                                                              \
     if (store_is_plain(avr, a_, ramend)) {                                                                             \
       data[a_] = v_;                                                                                                   \
+    } else if (a_ == R_SREG && sreg_write_is_plain(avr)) {                                                             \
+      sreg_write(avr, v_);                                                                                             \
+      limit = 0; /* the interrupt state may change */                                                                  \
     } else {                                                                                                           \
       SYNC();                                                                                                          \
       store_slow(avr, a_, v_);                                                                                         \
@@ -614,6 +675,8 @@ uint32_t fast_core_run(fast_core_t *core, avr_t *avr) {
     const uint16_t a_ = (uint16_t)(addr_expr);                                                                         \
     if (load_is_plain(avr, a_, ramend)) {                                                                              \
       (dst) = data[a_];                                                                                                \
+    } else if (a_ == R_SREG) {                                                                                         \
+      (dst) = sreg_read(avr);                                                                                          \
     } else {                                                                                                           \
       SYNC();                                                                                                          \
       (dst) = load_slow(avr, a_);                                                                                      \
@@ -655,18 +718,18 @@ next:
     avr_sadly_crashed(avr, 0); /* as simavr's core: no instruction there */
     return 0;
   }
-  e = &code[pc >> 1];
+  e = (const fc_insn_t *)((const char *)code + (size_t)pc * (sizeof(fc_insn_t) / 2)); /* code[pc / 2] */
   {
     uint16_t w;
     memcpy(&w, flash + pc, sizeof(w));
     w = le16toh(w);
     if (__builtin_expect(e->word != w, 0)) {
-      decode(avr, &code[pc >> 1], pc, w); /* the flash changed under the entry */
+      decode(avr, &code[pc / 2], pc, w, handlers); /* the flash changed under the entry */
     }
   }
   new_pc = pc + 2;
   cycles = 1;
-  goto *handlers[e->op];
+  goto *e->handler;
 
 op_nop:
   goto done;
@@ -1223,6 +1286,23 @@ done:
     pc = new_pc;
     goto next;
   }
+  /* The instructions after SEI, RETI or an SREG write that sets I: simavr's step would end the
+   * batch here, find no cycle timer due, count the interrupt delay down (its
+   * avr_service_interrupts) and bound a new batch by the first timer and `until`. Done here
+   * when that is all the step would do. */
+  if (until && avr->state == cpu_Running && avr->interrupt_state < 0 && s[S_I] && cycle < until) {
+    const avr_cycle_timer_slot_p first = avr->cycle_timers.timer;
+    const avr_cycle_count_t timer = first ? first->when : UINT64_MAX;
+    if (timer > cycle) {
+      if (++avr->interrupt_state == 0) {
+        avr->interrupt_state = !avr_int_pending_isempty(&avr->interrupts.pending);
+      }
+      end = timer < until ? timer : until;
+      limit = avr->interrupt_state == 0 ? end : 0;
+      pc = new_pc;
+      goto next;
+    }
+  }
   avr->pc = pc;
   avr->cycle = cycle;
   avr->run_cycle_count = end - (cycle - cycles); /* not lowered by the last instruction, as simavr */
@@ -1262,11 +1342,16 @@ fast_core_t *fast_core_new(const avr_t *avr) {
     free(core);
     return NULL;
   }
+  (void)pthread_once(&sreg_bytes_filled, fill_sreg_bytes);
+  fc_handlers_t handlers;
+  (void)run(NULL, NULL, 0, &handlers);
   for (uint32_t i = 0; i < core->words; i++) {
-    decode(avr, &core->code[i], i * 2, flash_word(avr, i * 2));
+    decode(avr, &core->code[i], i * 2, flash_word(avr, i * 2), handlers);
   }
   return core;
 }
+
+uint32_t fast_core_run(fast_core_t *core, avr_t *avr, uint64_t until) { return run(core, avr, until, NULL); }
 
 void fast_core_free(fast_core_t *core) {
   if (core) {

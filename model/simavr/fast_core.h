@@ -37,12 +37,16 @@ bool fast_core_wanted(void);
 
 /* Runs instructions as avr_run_one(avr) does: one, then on while the core runs, no interrupt
  * is pending and more than the instruction's cycles are left in avr->run_cycle_count (which
- * it lowers); returns the PC after the last one, with avr->pc left at that instruction. */
-uint32_t fast_core_run(fast_core_t *core, struct avr_t *avr);
+ * it lowers); returns the PC after the last one, with avr->pc left at that instruction.
+ * until > 0: the bound of the emulator's step (simavr_step_core); the batch then also goes on
+ * through the instructions after SEI/RETI that delay interrupts, where the step would only
+ * count the delay down and start a new batch (no cycle timer due, until not reached): the same
+ * instructions, cycles and interrupt state, fewer returns. */
+uint32_t fast_core_run(fast_core_t *core, struct avr_t *avr, uint64_t until);
 
-/* Enters the highest-priority pending interrupt, or counts down the instructions after SEI or
- * RETI, as simavr's avr_service_interrupts() does, with this core's stores and without calls
- * for the interrupt IRQs nobody hooks. */
-void fast_core_service_interrupts(struct avr_t *avr);
+/* The part of simavr's avr_service_interrupts() after its checks (simavr_patch_run.h makes
+ * them): enters the highest-priority pending interrupt, with this core's stores and without
+ * calls for the interrupt IRQs nobody hooks. */
+void fast_core_enter_interrupt(struct avr_t *avr);
 
 #endif

@@ -31,6 +31,7 @@ static bool attach_timers(servo_t *servo) {
   const unsigned max = sizeof(servo->timers) / sizeof(servo->timers[0]);
   for (avr_io_t *io = servo->avr->io_port; io && servo->timer_count < max; io = io->next) {
     if (io->kind && strcmp(io->kind, "timer") == 0) {
+      timer_enables_of((avr_timer_t *)io, &servo->timer_enables[servo->timer_count]);
       servo->timers[servo->timer_count++] = io;
       if (((avr_timer_t *)io)->name == '0' && !quiet_timer_attach(&servo->quiet_timer0, servo->avr, (avr_timer_t *)io)) {
         return false;

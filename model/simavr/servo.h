@@ -108,6 +108,7 @@ typedef struct servo {
   uint64_t sleep_cycles;
   /* The MCU's timer modules (simavr avr_timer_t), for servo_earliest_wake(). */
   void *timers[4];
+  timer_enables_t timer_enables[4]; /* their interrupt enable bits */
   unsigned timer_count;
   /* Timer0 (the H-bridge PWM): its events are not simulated while no interrupt of it is
    * enabled (quiet_timer.h). */

@@ -50,10 +50,7 @@ bool io_has_read(const struct avr_t *avr, uint16_t addr);
 
 /* ---- the cycle-timer list (avr->cycle_timers) ---- */
 
-/* When the first cycle timer is due whose owner (the param it was registered with) skip()
- * does not reject; SIM_CYCLES_NEVER when none. */
-sim_cycles_t simavr_first_timer_when_except(const struct avr_t *avr,
-                                            bool (*skip)(const void *owner, const void *ctx), const void *ctx);
+/* simavr_first_timer_when_except(): simavr_patch_run.h. */
 
 /* Cancels every cycle timer registered with param `owner`; returns how many. */
 unsigned simavr_cancel_timers_of(struct avr_t *avr, const void *owner);

@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The fast core (model/simavr/fast_core.h) against simavr's own interpreter, in lockstep: two
  * ATmega328Ps with the same random flash, registers and RAM; one steps with avr_run_one(), the
- * other with fast_core_run(), both through the emulator's step (simavr_patch_run.h: batches up
- * to a bound, the cycle timers, the interrupts). After every step the whole visible state must
+ * other with fast_core_run(), both through the emulator's run loop (simavr_patch_run.h: batches
+ * up to a bound, the cycle timers, the interrupts). After every step the whole visible state must
  * be equal: PC, cycle counter, run state, interrupt state, SREG, every data byte (registers,
  * I/O, RAM), the batch's remaining cycles, the flash, and the interrupt table (pending queue,
  * running stack, the IRQ values simavr keeps for tracing). Random words reach every opcode the
@@ -106,6 +106,15 @@ static void keep_in_bounds(avr_t *a, avr_t *b) {
     a->flash[a->pc + 2] = b->flash[a->pc + 2] = (uint8_t)addr;
     a->flash[a->pc + 3] = b->flash[a->pc + 3] = (uint8_t)(addr >> 8);
   }
+}
+
+/* The emulator's run loop (servo_run_until) for a core that stays awake: steps to `until`
+ * (0: one step, one instruction). */
+static void run_to(avr_t *avr, fast_core_t *core, sim_cycles_t until) {
+  simavr_end_batches_at_timer_changes(avr);
+  do {
+    simavr_step_core(avr, core, until);
+  } while (until && avr->cycle < until && avr->state == cpu_Running && !simavr_reset_requested(avr));
 }
 
 static void fill_random(avr_t *a, avr_t *b, bool flash) {
@@ -213,11 +222,9 @@ static void test_random_programs_match_simavr(void **state) {
       keep_in_bounds(a, b);
       const uint16_t word = a->pc + 2 <= a->flashend ? word_at(a, a->pc) : 0;
       const sim_cycles_t until = rnd() % 2 ? 0 : a->cycle + rnd() % 40;
-      simavr_end_batches_at_timer_changes(a);
-      simavr_end_batches_at_timer_changes(b);
       const sim_cycles_t before = a->cycle;
-      simavr_step_core(a, NULL, until);
-      simavr_step_core(b, core, until);
+      run_to(a, NULL, until);
+      run_to(b, core, until);
       batches += a->cycle - before > 4;
       steps_run++;
       expect_same(a, b, program, step, word);
