@@ -708,8 +708,6 @@ static uint32_t run(fast_core_t *core, avr_t *avr, avr_cycle_count_t until, fc_h
     SET_SP(sp_pc_ + 2);                                                                                                \
     (dst) = (uint32_t)((hi_ << 8) | lo_) << 1;                                                                         \
   } while (0)
-#define ALU_DR const uint8_t vd = data[e->d], vr = data[e->r]
-#define ALU_DK const uint8_t vd = data[e->d], k = e->x
 #define POINTER(reg) ((uint16_t)(data[reg] | (data[(reg) + 1] << 8)))
 
 next:
@@ -738,69 +736,57 @@ op_invalid:
   invalid_opcode(avr, pc);
   RESYNC();
   goto done;
-op_add: {
-  ALU_DR;
-  const uint8_t res = (uint8_t)(vd + vr);
-  data[e->d] = res;
-  flags_add(s, res, vd, vr);
-  goto done;
-}
-op_adc: {
-  ALU_DR;
-  const uint8_t res = (uint8_t)(vd + vr + s[S_C]);
-  data[e->d] = res;
-  flags_add(s, res, vd, vr);
-  goto done;
-}
-op_sub: {
-  ALU_DR;
-  const uint8_t res = (uint8_t)(vd - vr);
-  data[e->d] = res;
-  flags_sub(s, res, vd, vr, res == 0);
-  goto done;
-}
-op_sbc: {
-  ALU_DR;
-  const uint8_t res = (uint8_t)(vd - vr - s[S_C]);
-  data[e->d] = res;
-  flags_sub(s, res, vd, vr, res ? 0 : s[S_Z]);
-  goto done;
-}
-op_cp: {
-  ALU_DR;
-  const uint8_t res = (uint8_t)(vd - vr);
-  flags_sub(s, res, vd, vr, res == 0);
-  goto done;
-}
-op_cpc: {
-  ALU_DR;
-  const uint8_t res = (uint8_t)(vd - vr - s[S_C]);
-  flags_sub(s, res, vd, vr, res ? 0 : s[S_Z]);
-  goto done;
-}
+  /* ADD/ADC, SUB/SBC/CP/CPC and their immediate forms, AND/OR/EOR and theirs: rr is the
+   * source register's byte or the immediate; with_carry adds or subtracts C (and keeps Z set
+   * only while the result is zero, for SBC/CPC/SBCI); store: the result goes to Rd. */
+#define ADD_FORM(rr_value, with_carry)                                                                                 \
+  {                                                                                                                    \
+    const uint8_t vd = data[e->d], vr = (rr_value);                                                                    \
+    const uint8_t res = (uint8_t)(vd + vr + ((with_carry) ? s[S_C] : 0));                                              \
+    data[e->d] = res;                                                                                                  \
+    flags_add(s, res, vd, vr);                                                                                         \
+    goto done;                                                                                                         \
+  }
+#define SUB_FORM(rr_value, with_carry, store)                                                                          \
+  {                                                                                                                    \
+    const uint8_t vd = data[e->d], vr = (rr_value);                                                                    \
+    const uint8_t res = (uint8_t)(vd - vr - ((with_carry) ? s[S_C] : 0));                                              \
+    if (store) {                                                                                                       \
+      data[e->d] = res;                                                                                                \
+    }                                                                                                                  \
+    flags_sub(s, res, vd, vr, (with_carry) ? (res ? 0 : s[S_Z]) : res == 0);                                           \
+    goto done;                                                                                                         \
+  }
+#define LOGIC_FORM(operator, rr_value)                                                                                 \
+  {                                                                                                                    \
+    const uint8_t res = data[e->d] operator(rr_value);                                                                 \
+    data[e->d] = res;                                                                                                  \
+    flags_logic(s, res);                                                                                               \
+    goto done;                                                                                                         \
+  }
+op_add:
+  ADD_FORM(data[e->r], false)
+op_adc:
+  ADD_FORM(data[e->r], true)
+op_sub:
+  SUB_FORM(data[e->r], false, true)
+op_sbc:
+  SUB_FORM(data[e->r], true, true)
+op_cp:
+  SUB_FORM(data[e->r], false, false)
+op_cpc:
+  SUB_FORM(data[e->r], true, false)
 op_cpse:
   if (data[e->d] == data[e->r]) {
     goto skip;
   }
   goto done;
-op_and: {
-  const uint8_t res = data[e->d] & data[e->r];
-  data[e->d] = res;
-  flags_logic(s, res);
-  goto done;
-}
-op_or: {
-  const uint8_t res = data[e->d] | data[e->r];
-  data[e->d] = res;
-  flags_logic(s, res);
-  goto done;
-}
-op_eor: {
-  const uint8_t res = data[e->d] ^ data[e->r];
-  data[e->d] = res;
-  flags_logic(s, res);
-  goto done;
-}
+op_and:
+  LOGIC_FORM(&, data[e->r])
+op_or:
+  LOGIC_FORM(|, data[e->r])
+op_eor:
+  LOGIC_FORM(^, data[e->r])
 op_mov:
   data[e->d] = data[e->r];
   goto done;
@@ -850,38 +836,16 @@ op_fmuls:
   MUL_FORM((int8_t)data[e->r] * (int8_t)data[e->d], 1)
 op_fmulsu:
   MUL_FORM((uint8_t)data[e->r] * (int8_t)data[e->d], 1)
-op_cpi: {
-  ALU_DK;
-  const uint8_t res = (uint8_t)(vd - k);
-  flags_sub(s, res, vd, k, res == 0);
-  goto done;
-}
-op_sbci: {
-  ALU_DK;
-  const uint8_t res = (uint8_t)(vd - k - s[S_C]);
-  data[e->d] = res;
-  flags_sub(s, res, vd, k, res ? 0 : s[S_Z]);
-  goto done;
-}
-op_subi: {
-  ALU_DK;
-  const uint8_t res = (uint8_t)(vd - k);
-  data[e->d] = res;
-  flags_sub(s, res, vd, k, res == 0);
-  goto done;
-}
-op_ori: {
-  const uint8_t res = data[e->d] | e->x;
-  data[e->d] = res;
-  flags_logic(s, res);
-  goto done;
-}
-op_andi: {
-  const uint8_t res = data[e->d] & e->x;
-  data[e->d] = res;
-  flags_logic(s, res);
-  goto done;
-}
+op_cpi:
+  SUB_FORM(e->x, false, false)
+op_sbci:
+  SUB_FORM(e->x, true, true)
+op_subi:
+  SUB_FORM(e->x, false, true)
+op_ori:
+  LOGIC_FORM(|, e->x)
+op_andi:
+  LOGIC_FORM(&, e->x)
 op_ldi:
   data[e->d] = e->x;
   goto done;
@@ -1315,8 +1279,9 @@ done:
 #undef SET_SP
 #undef PUSH_PC
 #undef POP_PC
-#undef ALU_DR
-#undef ALU_DK
+#undef ADD_FORM
+#undef SUB_FORM
+#undef LOGIC_FORM
 #undef POINTER
 #undef MUL_FORM
 }
