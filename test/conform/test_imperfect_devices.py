@@ -24,6 +24,7 @@ import re
 
 import pytest
 
+import ax12_packets as P
 import ax12_table as T
 from conftest import R, foreign, records, run_report
 
@@ -106,10 +107,10 @@ def touches_the_angle_limits(record):
     for s in record["steps"]:
         if s["kind"] != "exchange":
             continue
-        sent = R.parse_hex(s["sent"])
-        if len(sent) < 7 or sent[:2] != [0xFF, 0xFF]:
+        packet = P.parse(R.parse_hex(s["sent"]))
+        if packet is None:
             continue
-        instruction, params = sent[4], sent[5:-1]
+        instruction, params = packet.code, packet.params
         if instruction == T.INST_READ and len(params) == 2 and OWN & set(range(params[0], params[0] + params[1])):
             return True
         if instruction in (T.INST_WRITE, T.INST_REG_WRITE) and len(params) >= 2:
