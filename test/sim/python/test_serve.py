@@ -109,12 +109,13 @@ def rdt_writes_logged(log_path):
     """From a --log-bus CSV cut by a SIGKILL: the simulated end (us) of each Return Delay Time
     WRITE's reply, in order, and the simulated time of the last row logged."""
     import csv
+    import io
     with open(log_path, newline="") as f:
-        rows = list(csv.DictReader(f))
+        text = f.read()
+    # Only whole lines: the kill can cut the last one anywhere, even inside a number.
+    whole = text[: text.rfind("\n") + 1]
     replies, last_us, waiting = [], 0.0, False
-    for row in rows:
-        if not row["end_us"]:
-            break  # a row cut by the kill
+    for row in csv.DictReader(io.StringIO(whole)):
         last_us = float(row["end_us"])
         params = row["params"].split()
         if row["sender"] == "client":
