@@ -241,6 +241,62 @@ def test_replay_aligns_the_answers_before_comparing_them():
         "answer 1: different: expected %s, got %s" % (R.hexs(ok), R.hexs(changed))]
 
 
+def exchanges_of(R, requests, answers_after):
+    """Exchanges of these request packets, each with the answers recorded after it."""
+    exs = []
+    for k, (request, answers) in enumerate(zip(requests, answers_after)):
+        ex = R.Exchange(R.Row(k + 2, 80.0 * k, "client", "instruction", request), [])
+        ex.expected = list(answers)
+        exs.append(ex)
+    return exs
+
+
+def test_replay_compares_answers_regrouped_by_delivery_as_one_stream():
+    """Seven READs the pty delivered at once, all seven answers recorded after the last; the
+    replay got one after each: the same answers."""
+    R = load_replay()
+    reads = [instruction_packet(1, T.INST_READ, [T.MODEL_NUMBER + k, 1]) for k in range(7)]
+    answers = [status_packet(1, 0, [10 + k]) for k in range(7)]
+    bunched = exchanges_of(R, reads, [[]] * 6 + [answers])
+    assert R.compare_all(bunched, [[a] for a in answers], False, T, set()) == []
+    # ... and the other way round: recorded one after each, got all after the last.
+    spread = exchanges_of(R, reads, [[a] for a in answers])
+    assert R.compare_all(spread, [[]] * 6 + [answers], False, T, set()) == []
+
+
+def test_replay_still_finds_what_differs_in_a_regrouped_stream():
+    R = load_replay()
+    reads = [instruction_packet(1, T.INST_READ, [T.MODEL_NUMBER + k, 1]) for k in range(7)]
+    answers = [status_packet(1, 0, [10 + k]) for k in range(7)]
+    bunched = exchanges_of(R, reads, [[]] * 6 + [answers])
+    missing = [[a] for a in answers[:3]] + [[]] + [[a] for a in answers[4:]]
+    assert R.compare_all(bunched, missing, False, T, set()) == [
+        (6, ["answer 4: missing: expected %s, got nothing" % R.hexs(answers[3])])]
+    extra = status_packet(2, 0)
+    assert R.compare_all(bunched, [[a] for a in answers[:2]] + [[answers[2], extra]] + [[a] for a in answers[3:]],
+                         False, T, set()) == [(2, ["answer 2: extra: expected nothing, got %s" % R.hexs(extra)])]
+    changed = status_packet(1, 0, [99])
+    assert R.compare_all(bunched, [[a] for a in answers[:5]] + [[changed], [answers[6]]], False, T, set()) == [
+        (6, ["answer 6: different: expected %s, got %s" % (R.hexs(answers[5]), R.hexs(changed))])]
+
+
+def test_replay_reports_a_missing_answer_under_its_own_packet_when_the_others_are_in_place():
+    R = load_replay()
+    pings = [instruction_packet(1, T.INST_PING)] * 3
+    ok = status_packet(1, 0)
+    exs = exchanges_of(R, pings, [[ok]] * 3)
+    assert R.compare_all(exs, [[ok], [], [ok]], False, T, set()) == [
+        (1, ["answer 1: missing: expected %s, got nothing" % R.hexs(ok)])]
+
+
+def test_replay_takes_each_packet_in_the_window_its_first_byte_came_in():
+    R = load_replay()
+    a, b = status_packet(1, 0, [1]), status_packet(1, 0, [2])
+    stream = a + b
+    # b's first byte came after the second packet was sent, its last ones later still.
+    assert R.answers_by_window(stream, [0, len(a), len(a) + 2]) == [[a], [b], []]
+
+
 def test_replay_ignores_only_the_time_varying_bytes_of_read_answers():
     R = load_replay()
     varying = R.varying_addresses(T)
@@ -322,3 +378,33 @@ def test_a_replay_on_a_deliberately_broken_firmware_build_reports_it(emulator, t
     differ = replay(log, broken.device)
     assert differ.returncode == 1, differ.stdout + differ.stderr
     assert "extra: expected nothing, got FF FF 01 03 00 01 FA" in differ.stdout, differ.stdout
+
+
+def test_a_recording_of_requests_delivered_at_once_replays_the_same_and_still_shows_a_difference(emulator, tmp_path):
+    """Seven READs written in one go: the pty hands them over together, the bus carries them back
+    to back and the log has all seven answers after the last. A replay sends them at the
+    recorded times, each then answered on its own: the same answers (SAME). Against the AX-12A,
+    whose Firmware Version (address 2) differs, the one READ of it differs (DIFFERENT)."""
+    import serial
+    log = tmp_path / "bunched.csv"
+    emu = emulator("--realtime", "--state-dir", str(tmp_path / "record"), "--log-bus", str(log))
+    reads = b"".join(instruction_packet(1, T.INST_READ, [address, 1]) for address in range(7))
+    with serial.Serial(emu.device, 1000000, timeout=0.5) as port:
+        port.write(reads)
+        got = b""
+        deadline = time.monotonic() + 2
+        while len(got) < 7 * 7 and time.monotonic() < deadline:
+            got += port.read(7 * 7 - len(got))
+    assert emu.stop() == 0
+    rows = rows_of(log)
+    assert [r["sender"] for r in rows] == ["client"] * 7 + ["servo-1"] * 7, "delivered at once, answered after"
+    assert len(got) == 49
+
+    for attempt in range(3):
+        same = replay(log, emulator("--realtime", "--state-dir", str(tmp_path / ("same%d" % attempt))).device)
+        if ": missing:" not in same.stdout:
+            break
+    assert same.returncode == 0 and "result: SAME" in same.stdout, same.stdout + same.stderr
+    other = replay(log, emulator("--realtime", "--profile", "ax12a", "--state-dir", str(tmp_path / "other")).device)
+    assert other.returncode == 1, other.stdout + other.stderr
+    assert "result: DIFFERENT: 1 difference in 1 of 7 exchanges" in other.stdout, other.stdout
