@@ -41,7 +41,9 @@ os.environ.setdefault("AX12_EMU", os.path.join(BUILD, "model", "tools", "ax12-em
 os.environ.setdefault("AX12_FIRMWARE_DIR", FIRMWARE_DIR)
 sys.path.insert(0, os.path.join(REPO, "python"))
 sys.path.insert(0, os.path.join(REPO, "scripts"))
+sys.path.insert(0, os.path.join(REPO, "test", "support"))
 import ax12_build  # noqa: E402
+import doc_samples  # noqa: E402
 
 ax12_build.ensure(BUILD)
 
@@ -171,6 +173,8 @@ def test_update_over_the_bus_changes_one_servo_only(serve, state_dir):
         model, version = ITEM["MODEL_NUMBER"].default_ax12, FIRMWARE_VERSION[profile]
         assert f"verified; the application runs: Model Number {model}, Firmware Version {version}" in run.stdout, \
             run.stdout
+        if profile == "ax12a":
+            doc_samples.check("flash-result", run.stdout)
         assert_runs(emu.device, 2, profile)
         assert read(emu.device, 2, KEPT_SETTING[0], 1) == [KEPT_SETTING[1]], "the EEPROM is not the bootloader's"
         for other in (1, 3):

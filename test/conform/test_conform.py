@@ -39,7 +39,9 @@ BUILD = Path(os.environ.get("AX12_BUILD_DIR", REPO / "build"))
 TOOL = REPO / "scripts" / "ax12_conform.py"
 DEFECTS = Path(os.environ.get("AX12_CONFORM_DEFECT_DIR", BUILD / "test" / "conform" / "defects"))
 sys.path.insert(0, str(REPO / "python"))
+sys.path.insert(0, str(REPO / "test" / "support"))
 import ax12_build  # noqa: E402
+import doc_samples  # noqa: E402
 
 ax12_build.ensure(str(BUILD))
 import ax12_table as T  # noqa: E402
@@ -155,6 +157,17 @@ def test_every_case_passes_against_the_matching_profile(serve, tmp_path, profile
                                               "mapping"}
     assert report["skipped_reasons"].get("mapping", 0) <= 1
     assert "result: PASS" in proc.stdout
+    if profile == "ax12":
+        doc_samples.check("conform-pass", proc.stdout, lambda line: conform_sample_line(line, emu.path))
+
+
+def conform_sample_line(line, port):
+    """A line of a conform run's output as README.md shows it: the port as the README's link,
+    the timing figures (a pty's, with the host's scheduling in them) masked."""
+    line = line.replace(str(port), "/tmp/ax12")
+    if line.startswith("timing:"):
+        line = re.sub(r"[-+]?\d+", "N", line)
+    return line
 
 
 def test_without_allow_eeprom_no_eeprom_case_runs_and_the_table_is_left_as_found(serve, tmp_path):
@@ -326,6 +339,8 @@ def test_a_broken_build_fails_exactly_the_cases_its_defect_touches(serve, tmp_pa
     assert expected
     assert failing(report) == expected, proc.stdout
     assert report["restored"]
+    if defect == "IGNORE_SRL":
+        doc_samples.check("conform-failures", proc.stdout)
 
 
 # --- Ctrl-C in an EEPROM case --------------------------------------------------------------------

@@ -7,6 +7,7 @@ Temperature is 70 where the AX-12's is 85 (docs/policy.md: the READ's answer dif
 1); a malformed log (exit 2, the line named)."""
 import csv
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -21,6 +22,10 @@ import dynamixel_sdk.port_handler as sdk_port
 import ax12_table as T
 from ax12_packets import instruction_packet, status_packet
 from conftest import EMU, FIRMWARE_DIR
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
+                                "support"))
+import doc_samples  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
 BUILD = os.environ.get("AX12_BUILD_DIR", os.path.join(REPO, "build"))
@@ -173,6 +178,7 @@ def test_a_logged_sdk_run_replays_the_same_and_shows_another_profile(emulator, t
     assert "READ ID 1" in report and "different" in report, report
     assert "expected FF FF 01 03 00 55" in report and "got FF FF 01 03 00 46" in report, report  # 85 vs 70
     assert "result: DIFFERENT: 1 difference in 1 of 8 exchanges" in report, report
+    doc_samples.check("replay-different", report, lambda line: replay_sample_line(line, log))
 
     # A log whose first answer was removed: the device's answer is an extra one, reported with
     # the PING, or with the READ sent 0.75 ms after it when it comes after that.
@@ -183,6 +189,40 @@ def test_a_logged_sdk_run_replays_the_same_and_shows_another_profile(emulator, t
     assert extra.returncode == 1, extra.stdout + extra.stderr
     assert "extra: expected nothing, got FF FF 01 02 00 FC" in extra.stdout, extra.stdout
     assert "result: DIFFERENT: 1 difference in 1 of 8 exchanges" in extra.stdout, extra.stdout
+
+
+def replay_sample_line(line, log):
+    """A line of a replay's report as docs/emulator.md shows it: the log's name as there, the
+    pty's number and the times (when each packet was sent and recorded) masked."""
+    line = line.replace(str(log), "recording.csv")
+    line = re.sub(r"/dev/pts/\d+", "/dev/pts/N", line)
+    return re.sub(r"sent at \+[\d.]+ ms \(recorded \+[\d.]+ ms\)", "sent at +T ms (recorded +T ms)", line)
+
+
+def csv_sample_line(line):
+    """A bus log's row as docs/emulator.md shows it: its times (simulated us since the start,
+    which depend on when the client wrote) masked."""
+    return re.sub(r"^\d+\.\d{4},\d+\.\d{4},", "T,T,", line)
+
+
+def test_the_csv_example_of_the_docs_is_a_log_of_its_packets(emulator, tmp_path):
+    """docs/emulator.md's example: a PING and its answer, a READ of Present Speed with a wrong
+    checksum answered with Checksum Error."""
+    import serial
+    log = tmp_path / "example.csv"
+    emu = emulator("--fast", "--state-dir", str(tmp_path / "s"), "--log-bus", str(log))
+    with serial.Serial(emu.device, 1000000, timeout=0.5) as port:
+        assert transact_bytes(port, instruction_packet(1, T.INST_PING), 6) == status_packet(1, 0)
+        read = instruction_packet(1, T.INST_READ, [T.PRESENT_TEMPERATURE, 1])[:-1] + b"\x00"
+        assert transact_bytes(port, read, 6) == status_packet(1, T.ERR_CHECKSUM)
+    assert emu.stop() == 0
+    doc_samples.check("bus-log-example", log.read_text(), csv_sample_line)
+
+
+def transact_bytes(port, request, count):
+    port.reset_input_buffer()
+    port.write(request)
+    return port.read(count)
 
 
 def test_a_malformed_log_is_refused_naming_its_line(tmp_path):
