@@ -138,6 +138,19 @@ def not_held(text, *symptoms):
     return text
 
 
+def first_run(text, folder, program, *symptoms):
+    """A lab's start: its programs saved, the emulator of its first `scripts/ax12 serve` line,
+    `program` run against it (not_held: none of symptoms) and the emulator stopped. Returns the
+    programs, the page's serve lines and what the program printed."""
+    saved = programs(text, folder)
+    serve_lines = commands(text, "scripts/ax12 serve")
+    serve = Serve(serve_lines[0], folder)
+    try:
+        return saved, serve_lines, not_held(run(saved[program], serve.device), *symptoms)
+    finally:
+        serve.stop()
+
+
 # --- comparing real-time figures ------------------------------------------------------------------
 
 def numbers_alike(sample, output, tolerances, pattern=r"-?\d+(?:\.\d+)?"):
@@ -223,13 +236,7 @@ def test_lab2_bus_timing(folder):
     text = page("02")
 
     def lab(folder):
-        saved = programs(text, folder)
-        serve_lines = commands(text, "scripts/ax12 serve")
-        serve = Serve(serve_lines[0], folder)
-        try:
-            pings = not_held(run(saved["lab2_ping.py"], serve.device), "did not answer")
-        finally:
-            serve.stop()
+        saved, serve_lines, pings = first_run(text, folder, "lab2_ping.py", "did not answer")
         doc_samples.check("lab2-broadcast-ping", pings)
         log, trace = folder / "lab2.csv", folder / "lab2.vcd"
         cut = subprocess.run(["cut", "-d,", "-f1-7,10", str(log)], capture_output=True, text=True, check=True).stdout
@@ -307,13 +314,7 @@ def test_lab4_eeprom_lock_regwrite(folder):
     text = page("04")
 
     def lab(folder):
-        saved = programs(text, folder)
-        serve_lines = commands(text, "scripts/ax12 serve")
-        serve = Serve(serve_lines[0], folder)
-        try:
-            writes = not_held(run(saved["lab4_writes.py"], serve.device), "None")
-        finally:
-            serve.stop()
+        saved, serve_lines, writes = first_run(text, folder, "lab4_writes.py", "None")
         grep = subprocess.run(["grep", "-E", "REG_WRITE|ACTION", "-A1", str(folder / "lab4.csv")],
                               capture_output=True, text=True, check=True).stdout
         if grep.count(",REG_WRITE,") != 2:

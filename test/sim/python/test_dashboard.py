@@ -101,6 +101,17 @@ def message(driver):
     return driver.find_element(By.ID, "message").text
 
 
+def refused_supply(driver, typed, said):
+    """The world form's supply given `typed` and applied: the page says `said`, the servo's
+    supply stays 9.6 V."""
+    supply = driver.find_element(By.ID, "world-supply")
+    supply.clear()
+    supply.send_keys(typed)
+    driver.find_element(By.ID, "world-apply").click()
+    wait_for(lambda: message(driver) == said, 5, "the message for %r" % typed)
+    assert "supply 9.6 V" in driver.find_element(By.ID, "world-now").text
+
+
 def monitor_rows(driver):
     """The bus monitor's rows as lists of cell texts."""
     return driver.execute_script(
@@ -235,13 +246,8 @@ def test_the_dashboard_shows_edits_and_changes_the_world_of_a_live_bus(emulator,
         # A bad world from the page changes nothing.
         browser.find_element(By.ID, "servo-row-2").click()
         wait_for(lambda: browser.find_element(By.ID, "selected-name").text.startswith("2"), 5, "servo 2 selected")
+        refused_supply(browser, "99", "World not changed: supply V 99 is outside 0.1..30")
         supply = browser.find_element(By.ID, "world-supply")
-        supply.clear()
-        supply.send_keys("99")
-        browser.find_element(By.ID, "world-apply").click()
-        wait_for(lambda: message(browser) == "World not changed: supply V 99 is outside 0.1..30", 5,
-                 "the message for 99 V")
-        assert "supply 9.6 V" in browser.find_element(By.ID, "world-now").text
 
         # A load far above the stall torque, raised from the page: Overload on the page and in
         # the servo's status packets (docs/policy.md "Alarms": within about 1 s of stalling).
@@ -351,10 +357,4 @@ def test_a_new_page_shows_every_servo_its_icon_and_its_own_words(emulator, brows
     assert len(counts) == 3, counts
     shot(browser, "4-overview")
 
-    supply = browser.find_element(By.ID, "world-supply")
-    supply.clear()
-    supply.send_keys("abc")
-    browser.find_element(By.ID, "world-apply").click()
-    wait_for(lambda: message(browser) == "World not changed: supply V 'abc' is not a number (0.1..30)", 5,
-             "the message for abc")
-    assert "supply 9.6 V" in browser.find_element(By.ID, "world-now").text
+    refused_supply(browser, "abc", "World not changed: supply V 'abc' is not a number (0.1..30)")
