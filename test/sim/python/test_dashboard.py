@@ -358,3 +358,47 @@ def test_a_new_page_shows_every_servo_its_icon_and_its_own_words(emulator, brows
     shot(browser, "4-overview")
 
     refused_supply(browser, "abc", "World not changed: supply V 'abc' is not a number (0.1..30)")
+
+
+# The world form's fields (web/dashboard/index.html: data-min, data-max) as world options: the
+# option, and how a field's value makes the option's text with the others at a value inside.
+FORM_FIELDS = {
+    "world-supply": ("supply", "{}"),
+    "world-ambient": ("ambient", "{}"),
+    "world-load-torque": ("load-torque", "{}"),
+    "world-spring-k": ("load-spring", "{},150"),
+    "world-spring-rest": ("load-spring", "1,{}"),
+    "world-arm-kg": ("load-arm", "{},0.1,150"),
+    "world-arm-m": ("load-arm", "0.1,{},150"),
+    "world-arm-deg": ("load-arm", "0.1,0.1,{}"),
+}
+
+
+def test_the_world_forms_ranges_are_the_emulators(emulator, tmp_path):
+    """The page checks the world's values against the ranges its fields carry; the emulator
+    takes each field's bounds and refuses just past them, so page and emulator say the same."""
+    import re
+    from html.parser import HTMLParser
+
+    import ax12_control
+
+    fields = {}
+
+    class Fields(HTMLParser):
+        def handle_starttag(self, tag, attrs):
+            a = dict(attrs)
+            if tag == "input" and a.get("id", "").startswith("world-") and "data-min" in a:
+                fields[a["id"]] = (float(a["data-min"]), float(a["data-max"]))
+    Fields().feed(open(os.path.join(os.path.dirname(__file__), "..", "..", "..", "web", "dashboard",
+                                    "index.html")).read())
+    assert set(fields) == set(FORM_FIELDS), sorted(fields)
+    emulator("--fast", "--state-dir", str(tmp_path), "--control", str(tmp_path / "c.sock"))
+    with ax12_control.Control(str(tmp_path / "c.sock")) as control:
+        for field, (low, high) in sorted(fields.items()):
+            option, text = FORM_FIELDS[field]
+            for value in (low, high):
+                control.request("world", id=1, set={option: text.format(value)})
+            step = 0.01 if re.search(r"(kg|-m)$", field) else 0.1
+            for value in (low - step, high + step):
+                with pytest.raises(ax12_control.ControlError):
+                    control.request("world", id=1, set={option: text.format(round(value, 3))})
