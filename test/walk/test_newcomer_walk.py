@@ -199,8 +199,13 @@ def test_a_newcomer_walks_from_a_fresh_clone_through_every_command(walk_dir, env
     step("log-bus, replay", started)
 
     started = time.monotonic()
-    conform = run(env, "conform", "--port", str(link), "--only", "matrix")
-    assert "result: PASS" in conform.stdout, conform.stdout
+    for attempt in range(2):  # a busy machine's pty may hold a reply past the tool's timeout
+        conform = subprocess.run([str(AX12), "conform", "--port", str(link), "--only", "matrix"], cwd=REPO,
+                                 env=env, capture_output=True, text=True, timeout=COMMAND_S)
+        no_traceback("scripts/ax12 conform", conform.stdout, conform.stderr)
+        if conform.returncode == 0:
+            break
+    assert conform.returncode == 0 and "result: PASS" in conform.stdout, conform.stdout + conform.stderr
     serve.interrupt()
     step("conform", started)
 
