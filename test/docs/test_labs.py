@@ -281,31 +281,38 @@ def world_now_alike(sample, output):
 
 def test_lab3_alarms_heat(folder):
     text = page("03")
-    saved = programs(text, folder)
-    serve = Serve(commands(text, "scripts/ax12 serve")[0], folder)
     worlds = commands(text, "scripts/ax12 world")
-    try:
-        seconds = int(re.search(r"lab3_stall\.py /dev/pts/N (\d+)", text).group(1))
-        seen = {}
+    seconds = int(re.search(r"lab3_stall\.py /dev/pts/N (\d+)", text).group(1))
 
-        def at_20_s():
-            time.sleep(21.0)
-            seen["world"] = world(worlds[0], folder)
-        asking = threading.Thread(target=at_20_s)
-        asking.start()
-        stall = run(saved["lab3_stall.py"], serve.device, seconds, timeout=seconds + 60)
-        asking.join()
-        doc_samples.check("lab3-stall", stall, same=stall_alike)
-        doc_samples.check("lab3-world", seen["world"], same=world_now_alike)
+    def lab(folder):
+        saved = programs(text, folder)
+        serve = Serve(commands(text, "scripts/ax12 serve")[0], folder)
+        try:
+            seen = {}
 
-        world(worlds[1], folder)  # part 2: the air at 25 degC, until overheating clears
-        deadline = time.monotonic() + 60
-        while "alarm conditions 0x20" not in world(worlds[0], folder) and time.monotonic() < deadline:
-            time.sleep(1.0)
-        doc_samples.check("lab3-overload", run(saved["lab3_overload.py"], serve.device),
-                          lambda line: re.sub(r"^\d+\.\d\d s", "T s", line))
-    finally:
-        serve.stop()
+            def at_20_s():
+                time.sleep(21.0)
+                seen["world"] = world(worlds[0], folder)
+            asking = threading.Thread(target=at_20_s)
+            asking.start()
+            stall = run(saved["lab3_stall.py"], serve.device, seconds, timeout=seconds + 60)
+            asking.join()
+            # DynamixelSDK takes an answer the pty handed over late for the next request's: a
+            # Torque Enable that is neither 0 nor 1 is one.
+            if re.search(r"torque (?![01] )\d+", stall):
+                raise HeldByThePty("a late answer taken for a read: %s" % stall)
+            doc_samples.check("lab3-stall", stall, same=stall_alike)
+            doc_samples.check("lab3-world", seen["world"], same=world_now_alike)
+
+            world(worlds[1], folder)  # part 2: the air at 25 degC, until overheating clears
+            deadline = time.monotonic() + 60
+            while "alarm conditions 0x20" not in world(worlds[0], folder) and time.monotonic() < deadline:
+                time.sleep(1.0)
+            doc_samples.check("lab3-overload", run(saved["lab3_overload.py"], serve.device),
+                              lambda line: re.sub(r"^\d+\.\d\d s", "T s", line))
+        finally:
+            serve.stop()
+    in_attempts(lab, folder, attempts=2)
 
 
 # --- lab 4 ---------------------------------------------------------------------------------------
