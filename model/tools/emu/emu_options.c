@@ -13,6 +13,7 @@
 #include "bus.h"
 #include "bus_noise.h"
 #include "elf_check.h"
+#include "emu_firmware_choice.h"
 #include "state_dir.h"
 
 #ifndef AX12_DEFAULT_FIRMWARE_DIR
@@ -45,7 +46,8 @@ static const char usage_text[] =
     "                      every reset starts (BOOTRST), with the application's record\n"
     "                      (docs/bootloader.md); its updates over the bus are kept in\n"
     "                      servo-<ID>.flash (default: <firmware-dir>/ax12-boot-<mcu>.elf\n"
-    "                      on the atmega328p when it exists; none on the atmega88)\n"
+    "                      on the atmega328p when it exists and --elf is this project's\n"
+    "                      application; none on the atmega88 or for another program)\n"
     "  --adapter KIND[:MS] the USB serial adapter between the client and the bus:\n"
     "                      u2d2 (default; FT232H class, high speed), usb2dynamixel (FT232R,\n"
     "                      full speed) or wire (no adapter: each byte as it leaves the wire).\n"
@@ -471,12 +473,7 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
     fprintf(stderr, "ax12-emu: %s\n", err);
     return 1;
   }
-  if (!o->bootloader_given && strcmp(o->mcu, "atmega328p") == 0) {
-    snprintf(o->bootloader, sizeof(o->bootloader), "%s/ax12-boot-%s.elf", o->firmware_dir, o->mcu);
-    if (access(o->bootloader, F_OK) != 0) {
-      o->bootloader[0] = '\0'; /* not built: the application alone, reset at 0 */
-    }
-  }
+  emu_firmware_choose_bootloader(o);
   if (o->bootloader[0] && access(o->bootloader, R_OK) != 0) {
     fprintf(stderr, "ax12-emu: bootloader ELF %s: %s (build the firmware, or pass --bootloader none)\n",
             o->bootloader, strerror(errno));
