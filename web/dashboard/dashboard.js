@@ -134,12 +134,21 @@ function buildCharts() {
   }
 }
 
-// Present Position of every servo in one chart (one series per servo).
+// Present Position of every servo in one chart (one series per servo). Each line is dashed so
+// that the servos' dashes take turns along it: where servos hold the same position (a new bus:
+// all at 512) their lines lie on one another and still show every servo's colour.
+const OVERVIEW_DASH_PX = 6;
+function overviewDash(i, count) {
+  const dash = Math.max(2, Math.round(OVERVIEW_DASH_PX * 3 / Math.max(count, 3)));
+  return count < 2 ? [] : [0, i * dash, dash, (count - 1 - i) * dash];
+}
+
 function buildOverview(slots) {
   state.overviewSlots = slots;
   state.overviewHistory = { t: [], present: slots.map(() => []) };
   const series = [{ label: "t" }].concat(slots.map((slot, i) => ({
-    label: String(slot), stroke: `hsl(${(i * 137) % 360}, 65%, 45%)`, width: 1.2, points: { show: false },
+    label: String(slot), stroke: `hsl(${(i * 137) % 360}, 65%, 45%)`, width: 1.6, points: { show: false },
+    dash: overviewDash(i, slots.length), cap: "butt",
   })));
   const opts = {
     title: "Present Position, every servo (counts)", width: 820, height: 170,
@@ -197,6 +206,7 @@ function scheduleRender() {
 function render() {
   state.renderPending = false;
   state.lastRender = performance.now();
+  if (state.rateTimer === undefined) state.rateTimer = setInterval(showRate, 1000);
   state.frames++;
   const event = state.lastEvent;
   if (event && state.eventDirty) {
@@ -319,16 +329,36 @@ function describeWorld(w) {
   return `supply ${w.supply} V, ambient ${w.ambient} °C, ${loads[w.load]}`;
 }
 
+// A world field's number, or null after saying, in the page's words, what is wrong with it:
+// its label, the text as typed and the range its data-min / data-max give (those of `serve`'s
+// options, docs/dashboard.md).
+function worldNumber(id) {
+  const input = $(id);
+  const text = input.value.trim();
+  const range = `${input.dataset.min}..${input.dataset.max}`;
+  const value = Number(text);
+  if (text === "" || !Number.isFinite(value)) {
+    say(`World not changed: ${input.dataset.name} ${text === "" ? "is empty" : `'${text}' is not a number`} (${range})`, false);
+    return null;
+  }
+  if (value < Number(input.dataset.min) || value > Number(input.dataset.max)) {
+    say(`World not changed: ${input.dataset.name} ${text} is outside ${range}`, false);
+    return null;
+  }
+  return text;
+}
+
 function applyWorld(event) {
   event.preventDefault();
-  const set = { supply: $("world-supply").value, ambient: $("world-ambient").value };
   const kind = $("world-load-kind").value;
+  const fields = { none: [], torque: ["world-load-torque"], spring: ["world-spring-k", "world-spring-rest"],
+    arm: ["world-arm-kg", "world-arm-m", "world-arm-deg"] }[kind];
+  const values = ["world-supply", "world-ambient", ...fields].map(worldNumber);
+  if (values.includes(null)) return;
+  const [supply, ambient, ...load] = values;
+  const set = { supply, ambient };
   if (kind === "none") set["load-none"] = true;
-  if (kind === "torque") set["load-torque"] = $("world-load-torque").value;
-  if (kind === "spring") set["load-spring"] = $("world-spring-k").value + "," + $("world-spring-rest").value;
-  if (kind === "arm") {
-    set["load-arm"] = $("world-arm-kg").value + "," + $("world-arm-m").value + "," + $("world-arm-deg").value;
-  }
+  else set["load-" + kind] = load.join(",");
   request({ type: "world", slot: state.selected, set });
 }
 
@@ -463,14 +493,17 @@ function onPoints(batch) {
 
 // Updates a second as drawn (frames in the last second), and why fewer when the server has
 // slowed the whole updates down because the machine has no CPU core to spare (docs/dashboard.md).
+// Counted from the first frame on, once a second: a page still connecting shows no rate. Red
+// only when the server has measured a machine with no core to spare.
 function showRate() {
   const drawn = `${state.frames} updates/s`;
   state.frames = 0;
   const r = state.rate;
   const busy = r && r.hz < r.full_hz;
-  const why = r && r.idle_cores === null ? "while the machine's load is measured" : "no CPU core to spare, the bus comes first";
+  const measuring = r && r.idle_cores === null;
+  const why = measuring ? "while the machine's load is measured" : "no CPU core to spare, the bus comes first";
   setText($("rate"), busy ? `${drawn} (${r.hz}/s: ${why})` : drawn);
-  $("rate").className = busy ? "bad" : "";
+  $("rate").className = busy && !measuring ? "bad" : "";
 }
 
 function setText(element, text) {
@@ -536,7 +569,6 @@ async function start() {
   });
   sections.observe($("servos"));
   sections.observe($("selected"));
-  setInterval(showRate, 1000);
   connect();
 }
 

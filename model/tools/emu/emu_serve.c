@@ -10,6 +10,7 @@
 
 #include <stdio.h>
 
+#include "eeprom_store.h"
 #include "emu_bus_log.h"
 #include "emu_control.h"
 #include "emu_dashboard.h"
@@ -31,6 +32,37 @@
 #define LAG_REPORT_PERIOD_US 10e6
 
 static sim_cycles_t sim_of_wall(void *ctx, double wall_us) { return pacing_sim_at(ctx, wall_us); }
+
+/* For the start-up line: "; slot 1 answers at ID 7, slot 2 answers at 57143 bit/s (saved settings)",
+ * each servo whose saved ID is not its slot's (the --ids entry) or whose saved Baud Rate is not
+ * the one asked for (--baud); "" when none. */
+static void describe_saved_settings(const world_t *world, const serve_options_t *o, char *out, size_t out_len) {
+  size_t used = 0;
+  out[0] = '\0';
+  for (size_t i = 0; i < world->servo_count && used < out_len; i++) {
+    uint8_t id = 0, baud_reg = 0;
+    if (!eeprom_store_image_fields(world->servos[i]->eeprom, world->servos[i]->eeprom_size, &id, &baud_reg)) {
+      continue;
+    }
+    const bool other_id = id != o->ids[i], other_baud = baud_reg != o->baud_register;
+    if (!other_id && !other_baud) {
+      continue;
+    }
+    char id_text[16] = "", baud_text[32] = "";
+    if (other_id) {
+      snprintf(id_text, sizeof(id_text), " ID %u", id);
+    }
+    if (other_baud) {
+      snprintf(baud_text, sizeof(baud_text), "%s %.0f bit/s", other_id ? "," : "", sim_baud_reg_to_bps(baud_reg));
+    }
+    const int n = snprintf(out + used, out_len - used, "%s slot %u answers at%s%s", used ? "," : ";", o->ids[i],
+                           id_text, baud_text);
+    used = n < 0 ? out_len : used + (size_t)n;
+  }
+  if (used && used < out_len) {
+    snprintf(out + used, out_len - used, " (saved settings)");
+  }
+}
 
 int emu_serve(const serve_options_t *o) {
   char err[512];
@@ -61,7 +93,7 @@ int emu_serve(const serve_options_t *o) {
     servo_attach_plant(world->servos[i], &plant);
   }
   /* The pty starts at the first servo's baud, so a client that sets none still talks. */
-  uint8_t first_baud = (uint8_t)o->baud;
+  uint8_t first_baud = (uint8_t)o->baud_register;
   (void)eeprom_store_image_fields(world->servos[0]->eeprom, world->servos[0]->eeprom_size, NULL, &first_baud);
   pty_bridge_t pty;
   if (pty_bridge_open(&pty, &world->bus, &world->now, sim_baud_reg_to_bps(first_baud), &o->adapter, o->link, err,
@@ -158,10 +190,12 @@ int emu_serve(const serve_options_t *o) {
   fflush(stdout);
   char adapter_name[96];
   usb_adapter_describe(&o->adapter, adapter_name, sizeof(adapter_name));
-  fprintf(stderr, "ax12-emu: %zu servo%s (%s, %s%s) on %s%s%s, adapter %s, state in %s, %s\n", world->servo_count,
+  char saved[512];
+  describe_saved_settings(world, o, saved, sizeof(saved));
+  fprintf(stderr, "ax12-emu: %zu servo%s (%s, %s%s) on %s%s%s, adapter %s, state in %s, %s%s\n", world->servo_count,
           world->servo_count == 1 ? "" : "s", eeprom_profile_name(o->profile), o->mcu,
           o->bootloader[0] ? ", bootloader" : "", pty.device, o->link ? " = " : "", o->link ? o->link : "", adapter_name,
-          o->state_dir, o->realtime ? "real time" : "fast");
+          o->state_dir, o->realtime ? "real time" : "fast", saved);
 
   bool warned_persist = false;
   double lag_report_at_us = pacing_wall_us() + LAG_REPORT_PERIOD_US;

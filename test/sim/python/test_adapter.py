@@ -176,7 +176,7 @@ def test_at_u2d2_1_a_reply_rarely_straddles_a_timer_expiry(emulator, tmp_path):
 def test_the_bus_sees_the_baud_the_chip_makes(emulator, tmp_path):
     # A servo at 117647 baud (register 16); the client asks 115200: the FT232R makes
     # 3 MHz / 26 = 115385 (1.9 % off, inside the 3 % a UART takes), so the servo answers.
-    emu = emulator("--adapter", "usb2dynamixel", "--baud", "16", "--state-dir", str(tmp_path / "a"), "--stats")
+    emu = emulator("--adapter", "usb2dynamixel", "--baud-register", "16", "--state-dir", str(tmp_path / "a"), "--stats")
     fd = open_raw(emu.device, termios.B115200)
     _, _, reply = timed_request(fd, READ_POSITION, REPLY_LEN)
     assert parse(reply) and parse(reply).checksum_ok, reply.hex()
