@@ -107,6 +107,7 @@ bool pacing_wait(pacing_t *pacing, sim_cycles_t sim_now, int fd) {
         pacing->wall0_us += -ahead; /* drop the lag: align the wall reference to now */
         pacing->total_dropped_us += -ahead;
         pacing->realignments++;
+        rt_guard_realigned(&pacing->rt, pacing_wall_us());
       }
     }
     guard_rt(pacing, ahead, false);

@@ -2,7 +2,11 @@
 #include "rt_guard.h"
 
 void rt_guard_start(rt_guard_t *g, double now_us) {
-  *g = (rt_guard_t){.held = true, .late_since_us = now_us, .on_time_since_us = now_us, .last_block_us = now_us};
+  *g = (rt_guard_t){.held = true,
+                    .late_since_us = now_us,
+                    .on_time_since_us = now_us,
+                    .realigned_at_us = now_us - RT_GUARD_REALIGN_GRACE_US,
+                    .last_block_us = now_us};
 }
 
 void rt_guard_restart(rt_guard_t *g, double now_us) {
@@ -14,21 +18,17 @@ void rt_guard_restart(rt_guard_t *g, double now_us) {
   g->last_block_us = now_us;
 }
 
-/* Late or on time at this check; `late` changes only after a whole late check or on-time run. */
+/* A late check starts a late spell; an on-time one ends it, but for a moment after a
+ * re-alignment. */
 static void track_lateness(rt_guard_t *g, double now_us, double ahead_us) {
   if (ahead_us < -RT_GUARD_LATE_US) {
     if (!g->late) {
       g->late = true;
       g->late_since_us = now_us;
     }
-    g->on_time_since_us = -1.0;
-    return;
-  }
-  if (g->on_time_since_us < 0.0) {
-    g->on_time_since_us = now_us;
-  }
-  if (g->late && now_us - g->on_time_since_us >= RT_GUARD_ON_TIME_US) {
+  } else if (g->late && now_us - g->realigned_at_us >= RT_GUARD_REALIGN_GRACE_US) {
     g->late = false;
+    g->on_time_since_us = now_us;
   }
 }
 
@@ -47,7 +47,8 @@ rt_guard_action_t rt_guard_check(rt_guard_t *g, double now_us, double ahead_us, 
     }
     return RT_GUARD_RUN;
   }
-  if (!g->given_up && (!g->late || now_us - g->dropped_at_us >= RT_GUARD_RETRY_US)) {
+  const bool caught_up = !g->late && now_us - g->on_time_since_us >= RT_GUARD_ON_TIME_US;
+  if (!g->given_up && (caught_up || now_us - g->dropped_at_us >= RT_GUARD_RETRY_US)) {
     g->held = true;
     g->dropped_us += now_us - g->dropped_at_us;
     g->late_since_us = now_us; /* on probation when still late: a whole late spell again */
@@ -55,6 +56,8 @@ rt_guard_action_t rt_guard_check(rt_guard_t *g, double now_us, double ahead_us, 
   }
   return RT_GUARD_RUN;
 }
+
+void rt_guard_realigned(rt_guard_t *g, double now_us) { g->realigned_at_us = now_us; }
 
 void rt_guard_blocked(rt_guard_t *g, double now_us) { g->last_block_us = now_us; }
 

@@ -7,16 +7,17 @@
  * may busy-poll, and the kernel's pty worker) but for the kernel's 5 % reserve. Rules:
  * - Yield: after RT_GUARD_RUN_MAX_US of running without blocking, block RT_GUARD_YIELD_US:
  *   every ordinary task on that CPU runs at least that often and waits at most that long.
- * - Drop: late by more than RT_GUARD_LATE_US for RT_GUARD_LATE_MAX_US on end (the host cannot
- *   run this world in real time even at priority): back to the ordinary policy, where the
- *   kernel shares the CPU fairly.
- * - Take again: once on time (late by RT_GUARD_LATE_US at most) for RT_GUARD_ON_TIME_US on
- *   end, or on probation RT_GUARD_RETRY_US after the drop (the load that made it late may be
- *   gone; if not, the drop rule applies again): a hopeless world holds the policy at most
- *   RT_GUARD_LATE_MAX_US of every RT_GUARD_RETRY_US + RT_GUARD_LATE_MAX_US.
- * A re-alignment of the clocks (pacing.h) leaves the simulation on time for a moment without
- * having caught up: the on-time run must last RT_GUARD_ON_TIME_US, which a world that cannot
- * keep up does not reach before it is late again. */
+ * - Drop: late by more than RT_GUARD_LATE_US at every check for RT_GUARD_LATE_MAX_US on end (the
+ *   host cannot run this world in real time even at priority; a world that catches up now and
+ *   then, however briefly, is not hopeless): back to the ordinary policy, where the kernel
+ *   shares the CPU fairly.
+ * - Take again: once on time (late by RT_GUARD_LATE_US at most) at every check for
+ *   RT_GUARD_ON_TIME_US on end, or on probation RT_GUARD_RETRY_US after the drop (the load
+ *   that made it late may be gone; if not, the drop rule applies again): a hopeless world holds
+ *   the policy at most RT_GUARD_LATE_MAX_US of every RT_GUARD_RETRY_US + RT_GUARD_LATE_MAX_US.
+ * A re-alignment of the clocks (pacing.h drops a lag of 200 ms) leaves the simulation on time
+ * for a moment without having caught up: for RT_GUARD_REALIGN_GRACE_US after one, being on
+ * time ends no late spell. */
 #ifndef SIM_RT_GUARD_H
 #define SIM_RT_GUARD_H
 
@@ -29,6 +30,7 @@
 #define RT_GUARD_LATE_MAX_US 1e6
 #define RT_GUARD_ON_TIME_US 100000.0
 #define RT_GUARD_RETRY_US 10e6
+#define RT_GUARD_REALIGN_GRACE_US 100000.0
 
 typedef enum {
   RT_GUARD_RUN,    /* go on */
@@ -40,9 +42,10 @@ typedef enum {
 typedef struct {
   bool held;              /* the thread holds the policy now */
   bool given_up;          /* taking it again failed: never again */
-  bool late;              /* late for good: set after a late check, cleared after an on-time run */
+  bool late;              /* in a late spell: from a late check to the next on-time one */
   double late_since_us;   /* the first late check of this late spell */
-  double on_time_since_us;/* the first on-time check since the last late one (< 0: none yet) */
+  double on_time_since_us;/* the first on-time check after the last late spell */
+  double realigned_at_us; /* the last re-alignment of the clocks */
   double last_block_us;   /* the thread last blocked (slept or yielded) */
   double dropped_at_us;
   uint64_t yields;
@@ -60,6 +63,9 @@ void rt_guard_restart(rt_guard_t *g, double now_us);
 /* At each pacing check: the simulation is ahead_us ahead of the clock (negative: late), and
  * will_block tells whether the thread is about to sleep. Returns what to do first. */
 rt_guard_action_t rt_guard_check(rt_guard_t *g, double now_us, double ahead_us, bool will_block);
+
+/* The clocks were re-aligned at now_us (a lag dropped). */
+void rt_guard_realigned(rt_guard_t *g, double now_us);
 
 /* The thread blocked (slept or yielded) until now_us. */
 void rt_guard_blocked(rt_guard_t *g, double now_us);
