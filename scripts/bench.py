@@ -487,7 +487,10 @@ def main():
 
     if a.load:
         import bench_load
-        notes = bench_load.run_load(a.build, a.load_runs, 300 if a.quick else 1000, row, r)
+        failures_log = os.path.splitext(a.out)[0] + "-load-failures.log"
+        if os.path.exists(failures_log):
+            os.remove(failures_log)
+        notes = bench_load.run_load(a.build, a.load_runs, 300 if a.quick else 1000, row, r, failures_log)
         print("real time on a busy machine: %d CPUs" % (os.cpu_count() or 1))
         section = None
         for sec, name, value, unit, goal in rows:

@@ -141,7 +141,9 @@ def bare_pty_round_trips(count):
 
 def client_suite(build, basetemp):
     """One run of the DynamixelSDK client suite: (passed, failed test names, worst timing of its
-    emulators: the largest of each figure)."""
+    emulators: the largest of each figure, pytest's output with the failed tests' emulators'
+    stderr when it failed)."""
+    build = os.path.abspath(build)  # pytest runs in test/clients
     env = dict(os.environ, AX12_EMU=os.path.join(build, "model", "tools", "ax12-emu"),
                AX12_FIRMWARE_DIR=os.path.join(build, "firmware"),
                PYTHONPATH=os.pathsep.join([os.path.join(build, "python"), os.path.join(REPO, "python")]))
@@ -150,14 +152,18 @@ def client_suite(build, basetemp):
                          capture_output=True, text=True)
     failed = re.findall(r"^FAILED (\S+)", run.stdout, re.M)
     worst = {}
+    report = run.stdout + run.stderr if run.returncode != 0 else ""
     for root, _, files in os.walk(basetemp):
         if "emulator.stderr" in files:
             with open(os.path.join(root, "emulator.stderr"), errors="replace") as f:
-                t = emulator_timing(f.read())
+                text = f.read()
+            t = emulator_timing(text)
             for key, value in (t or {}).items():
                 if key != "policy":
                     worst[key] = max(worst.get(key, 0.0), value)
-    return run.returncode == 0, failed, worst
+            if report:
+                report += "\n--- %s\n%s" % (root, "\n".join(line for line in text.splitlines() if " servo-" not in line))
+    return run.returncode == 0, failed, worst, report
 
 
 def load_average():
@@ -165,8 +171,9 @@ def load_average():
         return float(f.read().split()[0])
 
 
-def run_load(build, runs, pings, row, r):
-    """The figures of scripts/bench --load into row() / r; returns lines to print after the table."""
+def run_load(build, runs, pings, row, r, failures_log):
+    """The figures of scripts/bench --load into row() / r; returns lines to print after the table.
+    The failed suite runs' output goes to failures_log."""
     emu = os.path.join(build, "model", "tools", "ax12-emu")
     fw = os.path.join(build, "firmware")
     cpus = os.cpu_count() or 1
@@ -217,12 +224,12 @@ def run_load(build, runs, pings, row, r):
             for k in ("in50", "in99", "inmax", "out50", "out99", "outmax"):
                 r["load_%s_emulator_%s_ms" % (phase, k)] = timing[k]
         if suite is not None:
-            passed = sum(1 for ok, _, _ in suite if ok)
+            passed = sum(1 for ok, _, _, _ in suite if ok)
             row(sec, "DynamixelSDK client suite: runs passed", "%d of %d" % (passed, len(suite)), "", "all", None)
             r["load_suite_runs"] = len(suite)
             r["load_suite_runs_passed"] = passed
             worst = {}
-            for _, _, w in suite:
+            for _, _, w, _ in suite:
                 for key, value in w.items():
                     worst[key] = max(worst.get(key, 0.0), value)
             if worst:
@@ -233,9 +240,13 @@ def run_load(build, runs, pings, row, r):
                 row(sec, "suite's emulators, worst lag", worst["lag"], "ms", "", "load_suite_worst_lag_ms")
                 r["load_suite_worst_to_bus_max_ms"] = worst["inmax"]
                 r["load_suite_worst_late_max_ms"] = worst["outmax"]
-            for i, (ok, failed_tests, _) in enumerate(suite):
+            for i, (ok, failed_tests, _, report) in enumerate(suite):
                 if not ok:
                     lines.append("run %d failed: %s" % (i + 1, ", ".join(failed_tests) or "(see pytest)"))
+                    with open(failures_log, "a") as f:
+                        f.write("=== run %d\n%s\n" % (i + 1, report))
+            if passed < len(suite):
+                lines.append("pytest's output of the failed runs, with their emulators' --stats: %s" % failures_log)
     quiet_p99 = quantiles(phases["quiet"][0])["p99"]
     loaded_p99 = quantiles(phases["loaded"][0])["p99"]
     row("load: ratio", "DynamixelSDK ping p99, loaded / quiet", loaded_p99 / quiet_p99, "", "<= 2",
