@@ -478,6 +478,10 @@ def main():
                     help="only the bootloader's size and the time of an update over the bus")
     ap.add_argument("--firmware-only", action="store_true",
                     help="only the ATmega88 application's size, reply timing, sustained load and host cost")
+    ap.add_argument("--load", action="store_true",
+                    help="only real time on a busy machine: DynamixelSDK's ping and client suite quiet and under "
+                    "busy processes of its own (scripts/bench_load.py)")
+    ap.add_argument("--load-runs", type=int, default=20, help="with --load: runs of the client suite under load")
     ap.add_argument("--elf", help="with --firmware-only: this ATmega88 ELF instead of the build's")
     ap.add_argument("--before-elf", help="with --firmware-only: measure this ATmega88 ELF too, in the same run, and "
                     "print its figures beside the other's (bench.json: its keys prefixed before_)")
@@ -495,6 +499,25 @@ def main():
         rows.append((section, name, value, unit, goal))
         if key:
             r[key] = value
+
+    if a.load:
+        import bench_load
+        failures_log = os.path.splitext(a.out)[0] + "-load-failures.log"
+        if os.path.exists(failures_log):
+            os.remove(failures_log)
+        notes = bench_load.run_load(a.build, a.load_runs, 300 if a.quick else 1000, row, r, failures_log)
+        print("real time on a busy machine: %d CPUs" % (os.cpu_count() or 1))
+        section = None
+        for sec, name, value, unit, goal in rows:
+            if sec != section:
+                print("\n" + sec)
+                section = sec
+            print("  %-52s %16s %-8s %s" % (name, value if isinstance(value, str) else "%.3f" % value, unit, goal))
+        print("\n".join(notes))
+        with open(a.out, "w") as f:
+            json.dump(r, f, indent=1, sort_keys=True)
+        print("\nbench: wrote %s" % a.out)
+        return
 
     if a.bootloader_only:
         bootloader_figures(emu, fw, a.build, row)

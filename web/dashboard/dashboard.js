@@ -213,6 +213,7 @@ function render() {
     state.eventDirty = false;
     setText($("profile"), `${event.servos.length} servo(s), profile ${event.profile}, ${event.mcu}`);
     setText($("clock"), `t = ${(event.time_us / 1e6).toFixed(2)} s`);
+    if (event.timing) showTiming(event.timing);
     renderServos();
     const s = event.servos.find((x) => x.slot === state.selected);
     if (s) setText($("world-now"), describeWorld(s.world));
@@ -504,6 +505,28 @@ function showRate() {
   const why = measuring ? "while the machine's load is measured" : "no CPU core to spare, the bus comes first";
   setText($("rate"), busy ? `${drawn} (${r.hz}/s: ${why})` : drawn);
   $("rate").className = busy && !measuring ? "bad" : "";
+}
+
+// Real time as the emulator keeps it (docs/dashboard.md): its scheduling policy, its lag now
+// and at worst, and how long a client's bytes took to reach the bus (p50 / p99 / max) beside how
+// late the replies reached the client, so a late reply can be told from a late request.
+const LATE_MS = 20; // a lag past this shows in red: DynamixelSDK's timeout is about 34 ms
+function showTiming(t) {
+  const ms = (x) => x.toFixed(x < 10 ? 2 : 0);
+  const el = $("timing");
+  if (!t.realtime) {
+    setText(el, "fast (not real time)");
+    el.className = "";
+    return;
+  }
+  const policy = { held: t.policy.split(" (")[0], dropped: "ordinary scheduling (late: policy dropped)",
+                   "not allowed": "ordinary scheduling" }[t.policy_state] || t.policy;
+  const b = t.to_bus_delay, c = t.to_client_late;
+  setText(el, `real time, ${policy}: lag ${ms(t.lag_ms)} ms (worst ${ms(t.worst_lag_ms)}); ` +
+    `client to bus ${ms(b.p50_ms)} / ${ms(b.p99_ms)} / ${ms(b.max_ms)} ms, ` +
+    `replies late ${ms(c.p50_ms)} / ${ms(c.p99_ms)} / ${ms(c.max_ms)} ms (p50 / p99 / max)`);
+  el.title = t.policy;
+  el.className = t.policy_state !== "held" || t.worst_lag_ms > LATE_MS || b.max_ms > LATE_MS ? "bad" : "";
 }
 
 function setText(element, text) {

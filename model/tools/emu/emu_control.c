@@ -271,6 +271,13 @@ int emu_control_open(emu_control_t *c, const char *path, world_t *world, pty_bri
   return 0;
 }
 
+void emu_control_show_timing(emu_control_t *c, const pacing_t *pacing, const pty_bridge_t *pty,
+                             const emu_realtime_t *realtime) {
+  c->servos.pacing = pacing;
+  c->servos.pty = pty;
+  c->servos.realtime = realtime;
+}
+
 void emu_control_close(emu_control_t *c) {
   emu_bus_master_close(&c->master);
   emu_packet_stream_close(&c->packets);

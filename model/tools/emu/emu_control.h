@@ -64,6 +64,10 @@ int emu_control_open(emu_control_t *c, const char *path, world_t *world, pty_bri
                      bus_monitor_t **monitor, char *err, size_t err_len);
 void emu_control_close(emu_control_t *c);
 
+/* Status and telemetry carry "timing" from these from now on (emu_status.h). */
+void emu_control_show_timing(emu_control_t *c, const pacing_t *pacing, const pty_bridge_t *pty,
+                             const emu_realtime_t *realtime);
+
 /* Between world steps: requests, pushed telemetry and packets, and the packet on the bus. */
 void emu_control_poll(emu_control_t *c);
 

@@ -3,6 +3,7 @@
 Chromium driven by Selenium, on a 3-servo bus that DynamixelSDK drives through the pty at the
 same time. Screenshots are kept in $AX12_ARTIFACT_DIR (build/test-artifacts)."""
 import os
+import re
 import shutil
 import socket
 import subprocess
@@ -190,6 +191,11 @@ def test_the_dashboard_shows_edits_and_changes_the_world_of_a_live_bus(emulator,
         wait_for(lambda: cell(browser, 2, 2) == "800", 5, "Goal Position 800 on the page")
         wait_for(lambda: abs(int(cell(browser, 2, 3)) - 800) <= 10, 10, "Present Position near 800 on the page")
         shot(browser, "1-goal")
+
+        # The header tells real time: the scheduling, the lag, the delays of the SDK's requests.
+        timing = browser.find_element(By.ID, "timing").text
+        assert re.match(r"real time, (SCHED_FIFO 10|ordinary scheduling): lag [\d.]+ ms \(worst [\d.]+\); "
+                        r"client to bus [\d.]+ / [\d.]+ / [\d.]+ ms, replies late [\d.]+ / [\d.]+ / [\d.]+ ms", timing), timing
 
         # An edit in the page's control table, read back through the SDK.
         browser.find_element(By.ID, "servo-row-3").click()
