@@ -67,7 +67,8 @@ void dxl_link_port_reply_finish(void *port) {
 
 void dxl_after_port_persist(void *port, const uint8_t *table) {
   (void)port;
-  nvm_persist(table);
+  (void)table; /* the servo's table, which the main loop gives nvm_service() */
+  nvm_persist();
 }
 
 void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
@@ -78,11 +79,11 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
 #if DXL_HAS_BOOTLOADER
 /* The settings' store finishes first (a few bytes of 3.4 ms each), so the bootloader finds
  * them whole; the motor coasts. */
-void dxl_after_port_enter_bootloader(void *port) {
+void dxl_after_port_enter_bootloader(void *port, const uint8_t *table) {
   (void)port;
   while (nvm_busy()) {
     board_watchdog_kick();
-    nvm_service();
+    nvm_service(table);
   }
   motor_set_drive(0);
   boot_request_enter();

@@ -252,7 +252,8 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
 }
 
 #if DXL_HAS_BOOTLOADER
-void dxl_after_port_enter_bootloader(void *port) {
+void dxl_after_port_enter_bootloader(void *port, const uint8_t *table) {
+  (void)table;
   fake_uart_log(port, "bootloader ");
 }
 #endif

@@ -134,12 +134,21 @@ function buildCharts() {
   }
 }
 
-// Present Position of every servo in one chart (one series per servo).
+// Present Position of every servo in one chart (one series per servo). Each line is dashed so
+// that the servos' dashes take turns along it: where servos hold the same position (a new bus:
+// all at 512) their lines lie on one another and still show every servo's colour.
+const OVERVIEW_DASH_PX = 6;
+function overviewDash(i, count) {
+  const dash = Math.max(2, Math.round(OVERVIEW_DASH_PX * 3 / Math.max(count, 3)));
+  return count < 2 ? [] : [0, i * dash, dash, (count - 1 - i) * dash];
+}
+
 function buildOverview(slots) {
   state.overviewSlots = slots;
   state.overviewHistory = { t: [], present: slots.map(() => []) };
   const series = [{ label: "t" }].concat(slots.map((slot, i) => ({
-    label: String(slot), stroke: `hsl(${(i * 137) % 360}, 65%, 45%)`, width: 1.2, points: { show: false },
+    label: String(slot), stroke: `hsl(${(i * 137) % 360}, 65%, 45%)`, width: 1.6, points: { show: false },
+    dash: overviewDash(i, slots.length), cap: "butt",
   })));
   const opts = {
     title: "Present Position, every servo (counts)", width: 820, height: 170,
@@ -197,12 +206,14 @@ function scheduleRender() {
 function render() {
   state.renderPending = false;
   state.lastRender = performance.now();
+  if (state.rateTimer === undefined) state.rateTimer = setInterval(showRate, 1000);
   state.frames++;
   const event = state.lastEvent;
   if (event && state.eventDirty) {
     state.eventDirty = false;
     setText($("profile"), `${event.servos.length} servo(s), profile ${event.profile}, ${event.mcu}`);
     setText($("clock"), `t = ${(event.time_us / 1e6).toFixed(2)} s`);
+    if (event.timing) showTiming(event.timing);
     renderServos();
     const s = event.servos.find((x) => x.slot === state.selected);
     if (s) setText($("world-now"), describeWorld(s.world));
@@ -319,16 +330,36 @@ function describeWorld(w) {
   return `supply ${w.supply} V, ambient ${w.ambient} °C, ${loads[w.load]}`;
 }
 
+// A world field's number, or null after saying, in the page's words, what is wrong with it:
+// its label, the text as typed and the range its data-min / data-max give (those of `serve`'s
+// options, docs/dashboard.md).
+function worldNumber(id) {
+  const input = $(id);
+  const text = input.value.trim();
+  const range = `${input.dataset.min}..${input.dataset.max}`;
+  const value = Number(text);
+  if (text === "" || !Number.isFinite(value)) {
+    say(`World not changed: ${input.dataset.name} ${text === "" ? "is empty" : `'${text}' is not a number`} (${range})`, false);
+    return null;
+  }
+  if (value < Number(input.dataset.min) || value > Number(input.dataset.max)) {
+    say(`World not changed: ${input.dataset.name} ${text} is outside ${range}`, false);
+    return null;
+  }
+  return text;
+}
+
 function applyWorld(event) {
   event.preventDefault();
-  const set = { supply: $("world-supply").value, ambient: $("world-ambient").value };
   const kind = $("world-load-kind").value;
+  const fields = { none: [], torque: ["world-load-torque"], spring: ["world-spring-k", "world-spring-rest"],
+    arm: ["world-arm-kg", "world-arm-m", "world-arm-deg"] }[kind];
+  const values = ["world-supply", "world-ambient", ...fields].map(worldNumber);
+  if (values.includes(null)) return;
+  const [supply, ambient, ...load] = values;
+  const set = { supply, ambient };
   if (kind === "none") set["load-none"] = true;
-  if (kind === "torque") set["load-torque"] = $("world-load-torque").value;
-  if (kind === "spring") set["load-spring"] = $("world-spring-k").value + "," + $("world-spring-rest").value;
-  if (kind === "arm") {
-    set["load-arm"] = $("world-arm-kg").value + "," + $("world-arm-m").value + "," + $("world-arm-deg").value;
-  }
+  else set["load-" + kind] = load.join(",");
   request({ type: "world", slot: state.selected, set });
 }
 
@@ -463,14 +494,39 @@ function onPoints(batch) {
 
 // Updates a second as drawn (frames in the last second), and why fewer when the server has
 // slowed the whole updates down because the machine has no CPU core to spare (docs/dashboard.md).
+// Counted from the first frame on, once a second: a page still connecting shows no rate. Red
+// only when the server has measured a machine with no core to spare.
 function showRate() {
   const drawn = `${state.frames} updates/s`;
   state.frames = 0;
   const r = state.rate;
   const busy = r && r.hz < r.full_hz;
-  const why = r && r.idle_cores === null ? "while the machine's load is measured" : "no CPU core to spare, the bus comes first";
+  const measuring = r && r.idle_cores === null;
+  const why = measuring ? "while the machine's load is measured" : "no CPU core to spare, the bus comes first";
   setText($("rate"), busy ? `${drawn} (${r.hz}/s: ${why})` : drawn);
-  $("rate").className = busy ? "bad" : "";
+  $("rate").className = busy && !measuring ? "bad" : "";
+}
+
+// Real time as the emulator keeps it (docs/dashboard.md): its scheduling policy, its lag now
+// and at worst, and how long a client's bytes took to reach the bus (p50 / p99 / max) beside how
+// late the replies reached the client, so a late reply can be told from a late request.
+const LATE_MS = 20; // a lag past this shows in red: DynamixelSDK's timeout is about 34 ms
+function showTiming(t) {
+  const ms = (x) => x.toFixed(x < 10 ? 2 : 0);
+  const el = $("timing");
+  if (!t.realtime) {
+    setText(el, "fast (not real time)");
+    el.className = "";
+    return;
+  }
+  const policy = { held: t.policy.split(" (")[0], dropped: "ordinary scheduling (late: policy dropped)",
+                   "not allowed": "ordinary scheduling" }[t.policy_state] || t.policy;
+  const b = t.to_bus_delay, c = t.to_client_late;
+  setText(el, `real time, ${policy}: lag ${ms(t.lag_ms)} ms (worst ${ms(t.worst_lag_ms)}); ` +
+    `client to bus ${ms(b.p50_ms)} / ${ms(b.p99_ms)} / ${ms(b.max_ms)} ms, ` +
+    `replies late ${ms(c.p50_ms)} / ${ms(c.p99_ms)} / ${ms(c.max_ms)} ms (p50 / p99 / max)`);
+  el.title = t.policy;
+  el.className = t.policy_state !== "held" || t.worst_lag_ms > LATE_MS || b.max_ms > LATE_MS ? "bad" : "";
 }
 
 function setText(element, text) {
@@ -536,7 +592,6 @@ async function start() {
   });
   sections.observe($("servos"));
   sections.observe($("selected"));
-  setInterval(showRate, 1000);
   connect();
 }
 

@@ -35,7 +35,7 @@ typedef struct {
   char state_dir[PATH_MAX];
   eeprom_profile_t profile;
   const char *mcu;
-  unsigned baud;
+  unsigned baud_register;        /* Baud Rate of servos without a state file (--baud, --baud-register) */
   bool realtime;
   char elf[PATH_MAX];
   char bootloader[PATH_MAX];    /* the bootloader ELF beside the application; "" = none */

@@ -23,8 +23,9 @@ FIRMWARE_REQUIRED = os.environ.get("AX12_FIRMWARE_REQUIRED", "1") == "1"
 
 
 class Emulator:
-    def __init__(self, args, timeout=20.0):
-        self.args = [EMU, "serve"] + list(args)
+    def __init__(self, args, timeout=20.0, emu_command=None):
+        """emu_command: the program and what runs it (["taskset", "-c", "0", EMU]); default EMU."""
+        self.args = list(emu_command or [EMU]) + ["serve"] + list(args)
         self.proc = subprocess.Popen(self.args, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         self.device = None
         line = b""
