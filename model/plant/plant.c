@@ -305,3 +305,38 @@ double ax12_plant_temp_sense_mv(const ax12_plant_t *plant)
 {
     return adc_pin_mv(500.0 + 10.0 * plant->state.thermal.case_c);
 }
+
+/* ---- The shaft driven by a rigid-body engine (plant_joint.h) ---- */
+
+double ax12_plant_output_drive_nm(const ax12_plant_t *plant, double duty, double speed_rad_s)
+{
+    if (isnan(duty)) {
+        duty = 0.0;
+    }
+    duty = duty > 1.0 ? 1.0 : (duty < -1.0 ? -1.0 : duty);
+    const ax12_plant_params_t *p = &plant->params;
+    const loop_t l = loop_at(plant, duty);
+    return ax12_gearbox_drive_nm(&p->gearbox,
+                                 ax12_motor_torque_nm(&p->motor, loop_current_a(plant, &l, speed_rad_s)));
+}
+
+void ax12_plant_step_electrics(ax12_plant_t *plant, double duty, double dt_s, double friction_w)
+{
+    if (!(dt_s > 0.0)) {
+        return;
+    }
+    if (isnan(duty)) {
+        duty = 0.0;
+    }
+    duty = duty > 1.0 ? 1.0 : (duty < -1.0 ? -1.0 : duty);
+    const ax12_plant_params_t *p = &plant->params;
+    ax12_plant_state_t *s = &plant->state;
+    s->duty = duty;
+    s->stuck = false;
+    const loop_t l = loop_at(plant, duty);
+    const double i_a = loop_current_a(plant, &l, s->speed_rad_s);
+    update_electrics(plant, &l);
+    const double winding_w = i_a * i_a * l.r_winding_ohm;
+    const double case_w = i_a * i_a * p->bridge_r_ohm + friction_w + s->terminal_v * p->supply.standby_a;
+    ax12_thermal_step(&p->thermal, &s->thermal, winding_w, case_w, p->ambient_c, dt_s);
+}

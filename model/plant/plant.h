@@ -83,6 +83,15 @@ double ax12_plant_terminal_v(const ax12_plant_t *plant);
 double ax12_plant_winding_temp_c(const ax12_plant_t *plant);
 double ax12_plant_case_temp_c(const ax12_plant_t *plant);
 
+/* The shaft driven by someone else (a rigid-body engine: plant_joint.h). The drive at the
+ * output, N x Kt x winding current, at duty and output speed speed_rad_s, before any gear
+ * friction (the gearbox's efficiency is friction: ax12_plant_joint_frictionloss_nm). */
+double ax12_plant_output_drive_nm(const ax12_plant_t *plant, double duty, double speed_rad_s);
+/* Steps the electrics and the heat by dt_s at duty (as ax12_plant_step) with the shaft turning
+ * at state.speed_rad_s, which this does not change; friction_w: the friction's heat, into the
+ * case. The mechanics are not integrated. */
+void ax12_plant_step_electrics(ax12_plant_t *plant, double duty, double dt_s, double friction_w);
+
 /* ADC inputs, mV, each clamped to the 0..5000 mV the pin can see. */
 double ax12_plant_pot_mv(const ax12_plant_t *plant);          /* ADC0 */
 double ax12_plant_supply_sense_mv(const ax12_plant_t *plant); /* ADC1: terminal V / 5 */

@@ -1,0 +1,80 @@
+#include "plant_joint.h"
+
+#include <math.h>
+
+/* Speed step of the drive's slope: the drive is linear in the speed at a given duty, so the
+ * slope is exact at any step; a small one follows a bridge model that is not. */
+#define SLOPE_STEP_RAD_S 0.01
+
+static void drive_at(const ax12_plant_t *plant, double duty, double speed_rad_s, double *drive_nm,
+                     double *slope_nm_s_rad)
+{
+    *drive_nm = ax12_plant_output_drive_nm(plant, duty, speed_rad_s);
+    *slope_nm_s_rad =
+        (*drive_nm - ax12_plant_output_drive_nm(plant, duty, speed_rad_s + SLOPE_STEP_RAD_S)) / SLOPE_STEP_RAD_S;
+}
+
+double ax12_plant_joint_armature_kg_m2(const ax12_plant_t *plant)
+{
+    const ax12_plant_params_t *p = &plant->params;
+    return ax12_gearbox_output_inertia_kg_m2(&p->gearbox, p->motor.inertia_kg_m2);
+}
+
+double ax12_plant_joint_frictionloss_nm(const ax12_plant_t *plant, double drive_nm)
+{
+    const ax12_plant_params_t *p = &plant->params;
+    return p->gearbox.ratio * ax12_motor_friction_nm(&p->motor) +
+           ax12_gearbox_sliding_friction_nm(&p->gearbox, drive_nm);
+}
+
+double ax12_plant_joint_viscous_nm_s_rad(const ax12_plant_t *plant)
+{
+    return plant->params.gearbox.viscous_nm_s_rad;
+}
+
+void ax12_plant_joint_step(ax12_plant_t *plant, double duty, double dt_s, ax12_joint_drive_t *acc)
+{
+    if (!(dt_s > 0.0)) {
+        return;
+    }
+    const double w = plant->state.speed_rad_s;
+    double drive_nm, slope;
+    drive_at(plant, duty, w, &drive_nm, &slope);
+    const double friction_w = ax12_plant_joint_frictionloss_nm(plant, drive_nm) * fabs(w) +
+                              ax12_plant_joint_viscous_nm_s_rad(plant) * w * w;
+    ax12_plant_step_electrics(plant, duty, dt_s, friction_w);
+    plant->state.angle_rad += w * dt_s;
+    acc->applied_nm_s += (drive_nm + slope * w) * dt_s;
+    acc->slope_nm_s2_rad += slope * dt_s;
+    acc->abs_drive_nm_s += fabs(drive_nm) * dt_s;
+    acc->span_s += dt_s;
+}
+
+ax12_joint_torque_t ax12_plant_joint_take(const ax12_plant_t *plant, ax12_joint_drive_t *acc)
+{
+    double applied_nm, slope, abs_drive_nm;
+    if (acc->span_s > 0.0) {
+        applied_nm = acc->applied_nm_s / acc->span_s;
+        slope = acc->slope_nm_s2_rad / acc->span_s;
+        abs_drive_nm = acc->abs_drive_nm_s / acc->span_s;
+    } else {
+        const double w = plant->state.speed_rad_s;
+        double drive_nm;
+        drive_at(plant, plant->state.duty, w, &drive_nm, &slope);
+        applied_nm = drive_nm + slope * w;
+        abs_drive_nm = fabs(drive_nm);
+    }
+    *acc = (ax12_joint_drive_t){0};
+    return (ax12_joint_torque_t){
+        .applied_nm = applied_nm,
+        .damping_nm_s_rad = ax12_plant_joint_viscous_nm_s_rad(plant) + slope,
+        .frictionloss_nm = ax12_plant_joint_frictionloss_nm(plant, abs_drive_nm),
+    };
+}
+
+void ax12_plant_joint_set_motion(ax12_plant_t *plant, double angle_rad, double speed_rad_s)
+{
+    plant->state.angle_rad = angle_rad;
+    plant->state.speed_rad_s = speed_rad_s;
+    plant->state.stuck = false;
+}
