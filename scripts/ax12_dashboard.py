@@ -18,6 +18,12 @@ to a page only while its monitor is on screen, so a busy bus costs the page and 
 little. Bad input gets a message and changes nothing; a page that stops reading is dropped, and
 nothing a page does stops the bus.
 
+With a robot (`serve --robot`), every telemetry message carries its pose ("robot": every
+body's position and orientation, docs/robot.md "The robot on the control socket"), GET
+/api/robot gives what a 3D view needs to draw it (bodies, geoms, meshes, its world), and a
+page's {"type": "robot", "set": {...}} changes its world (a payload, a push, gravity) as
+`scripts/ax12 world` does.
+
 Started by ax12-emu with --control PATH --listen HOST:PORT; prints one line
 `listening http://HOST:PORT/` on stdout once it serves, then logs only to stderr. It exits
 when the emulator closes the control socket.
@@ -267,6 +273,18 @@ async def page_world(emu, msg):
     return True, "servo %d's world changed: %s" % (slot, ", ".join("%s %s" % kv for kv in changes.items()))
 
 
+async def page_robot(emu, msg):
+    """A change of the robot's world: {"payload": ..., "push": ..., "gravity": ...} as the
+    control socket's "robot" request takes it (checked whole by the emulator)."""
+    changes = msg.get("set")
+    if not isinstance(changes, dict) or not changes:
+        return False, "nothing to change (payload, push, gravity)"
+    reply = await emu.request({"op": "robot", "set": changes})
+    if not reply.get("ok"):
+        return False, reply.get("error", "refused")
+    return True, "the robot's world changed: %s" % ", ".join("%s %s" % (k, json.dumps(v)) for k, v in changes.items())
+
+
 async def send_queued(ws, queue):
     while True:
         text = await queue.get()
@@ -294,7 +312,9 @@ async def answer(emu, ws, msg):
             return await page_write(emu, msg)
         if kind == "world":
             return await page_world(emu, msg)
-        return False, "unknown request (write or world)"
+        if kind == "robot":
+            return await page_robot(emu, msg)
+        return False, "unknown request (write, world or robot)"
     except (asyncio.TimeoutError, ConnectionError) as e:
         return False, "the emulator did not answer: %s" % (e or "timeout")
 
@@ -346,6 +366,17 @@ async def items(request):
     return web.json_response([item._asdict() for item in ax12_table.ITEMS])
 
 
+async def robot(request):
+    """The robot's description (docs/robot.md): {"robot": {...}}, or {"robot": null} without one."""
+    emu = request.app["emu"]
+    try:
+        reply = await emu.request({"op": "robot"})
+    except (asyncio.TimeoutError, ConnectionError) as e:
+        return web.json_response({"robot": None, "error": "the emulator did not answer: %s" % (e or "timeout")},
+                                 status=503)
+    return web.json_response({"robot": reply.get("robot") if reply.get("ok") else None})
+
+
 async def index(request):
     return web.FileResponse(os.path.join(WEB, "index.html"))
 
@@ -374,6 +405,7 @@ async def serve(args):
     app.router.add_get("/", index)
     app.router.add_get("/ws", websocket)
     app.router.add_get("/api/items", items)
+    app.router.add_get("/api/robot", robot)
     app.router.add_static("/static/", WEB)
     app.router.add_static("/uplot/", UPLOT)
     runner = web.AppRunner(app, access_log=None)

@@ -218,15 +218,16 @@ def free_tcp_port():
         return s.getsockname()[1]
 
 
-def sdk_client_loop(emu, firmware_dir, servos, seconds, adapter=DEFAULT_ADAPTER, dashboard=None):
+def sdk_client_loop(emu, firmware_dir, servos, seconds, adapter=DEFAULT_ADAPTER, dashboard=None, robot=None):
     """One SYNC_WRITE of goal positions plus a READ of Present Position from every servo,
     repeated through the pty in real time behind `adapter`; then every servo's goal is checked.
     Also returns the servos' Return Delay Time (for the wire-time floor). With `dashboard`, the
     emulator serves the dashboard and a headless Chromium shows it throughout, scrolled to that
-    view (dashboard_page)."""
+    view (dashboard_page). With `robot` (serve --robot, its servos 1..servos), the goals sway
+    20 counts about the joints' zero (the robot's standing pose) every 20 loops."""
     from dynamixel_sdk import GroupSyncWrite
     import ax12_table as T
-    extra = ["--adapter", adapter]
+    extra = ["--adapter", adapter] + (["--robot", robot] if robot else [])
     if dashboard:
         port_number = free_tcp_port()
         extra += ["--dashboard", str(port_number)]
@@ -244,7 +245,7 @@ def sdk_client_loop(emu, firmware_dir, servos, seconds, adapter=DEFAULT_ADAPTER,
         while time.perf_counter() < t_end:
             sync = GroupSyncWrite(port, packet, T.GOAL_POSITION, T.BY_ADDR[T.GOAL_POSITION].size)
             for i in range(1, servos + 1):
-                goals[i] = 400 + (i * 7 + (loops // 20) * 200) % 300
+                goals[i] = 512 + 20 * ((loops // 20) % 2) if robot else 400 + (i * 7 + (loops // 20) * 200) % 300
                 sync.addParam(i, [goals[i] & 0xFF, goals[i] >> 8])
             sync.txPacket()
             for i in range(1, servos + 1):
@@ -433,6 +434,55 @@ def reply_and_load_figures(bench, elf, quick, row, r):
         "flood_servos_silent_after")
 
 
+def callgrind_inclusive(out_file, function):
+    """A function's inclusive instructions in a callgrind profile (callgrind_annotate)."""
+    text = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--threshold=100", out_file], check=True,
+                          capture_output=True, text=True).stdout
+    for line in text.splitlines():
+        m = re.match(r"^\s*([\d,]+)\s.*:%s\s" % re.escape(function), line)
+        if m:
+            return int(m.group(1).replace(",", ""))
+    return 0
+
+
+def robot_figures(bench, emu, fw, elf, seconds, runs, row):
+    """The hexapod (18 servos + its physics): unthrottled speed holding and under the
+    zero-latency client loop (ax12-bench robot, median of runs), the physics' share of the
+    host's instructions in that loop (callgrind: MuJoCo's step, robot_physics_step, inside
+    bench_robot_loops), and the DynamixelSDK loop in real time behind the default U2D2."""
+    speeds = [run_json([bench, "robot", elf, "hexapod", "1"]) for _ in range(runs)]
+    row("robot: hexapod", "18 servos + physics, unthrottled, holding", statistics.median(
+        x["holding_sim_s_per_wall_s"] for x in speeds), "x real time", ">= 1", "robot_hexapod_holding_fast")
+    row("robot: hexapod", "18 servos + physics, unthrottled, zero-latency client loop", statistics.median(
+        x["loaded_sim_s_per_wall_s"] for x in speeds), "x real time", ">= 1", "robot_hexapod_loaded_fast")
+    with tempfile.TemporaryDirectory(prefix="ax12-callgrind-") as d:
+        out_file = os.path.join(d, "callgrind.out")
+        run = subprocess.run(["valgrind", "--tool=callgrind", "--toggle-collect=bench_robot_loops",
+                              "--callgrind-out-file=" + out_file, bench, "robot", elf, "hexapod", "0.2"],
+                             check=True, capture_output=True, text=True)
+        loop = json.loads(run.stdout.strip().splitlines()[-1])
+        total = callgrind_inclusive(out_file, "bench_robot_loops")
+        physics = callgrind_inclusive(out_file, "robot_physics_step")
+        coupling = callgrind_inclusive(out_file, "physics_step")
+    row("robot: hexapod", "host instructions per simulated second, client loop (callgrind)",
+        total / loop["loaded_sim_s"], "instructions", "", "robot_hexapod_instructions_per_s")
+    row("robot: hexapod", "physics (MuJoCo's step) share of them", physics / total, "", "<= 0.10",
+        "robot_hexapod_physics_share")
+    row("robot: hexapod", "physics step with its coupling (plants to the step, torques in, joints out)",
+        coupling / total, "", "", "robot_hexapod_coupling_share")
+    row("robot: hexapod", "host instructions per physics step (1 ms)", physics / loop["physics_steps"],
+        "instructions", "", "robot_hexapod_instructions_per_step")
+    loop = sdk_client_loop(emu, fw, 18, seconds, DEFAULT_ADAPTER, robot="hexapod")
+    row("robot: hexapod", "DynamixelSDK SYNC_WRITE + 18 READs (%s), real time" % DEFAULT_ADAPTER,
+        loop["loops_per_s"], "loops/s", "", "robot_hexapod_sdk_loops_per_s")
+    row("robot: hexapod", "DynamixelSDK loop: real-time factor (throttled)", loop.get("speed", float("nan")),
+        "x real time", ">= 1", "robot_hexapod_sdk_speed")
+    row("robot: hexapod", "DynamixelSDK loop: worst lag", loop.get("worst_lag_ms", float("nan")), "ms", "",
+        "robot_hexapod_sdk_worst_lag_ms")
+    row("robot: hexapod", "DynamixelSDK loop: READs that timed out", loop["read_failures"], "", "0",
+        "robot_hexapod_sdk_read_failures")
+
+
 def host_cost_figure(bench, elf, row):
     # The host's cost of the 30-servo client loop, machine-independent: callgrind's instruction
     # count inside bench_client_loops (the loaded window of ax12-bench speed), per simulated
@@ -461,6 +511,8 @@ def main():
                     help="only the 30-servo SDK loop without and with the dashboard open")
     ap.add_argument("--bootloader-only", action="store_true",
                     help="only the bootloader's size and the time of an update over the bus")
+    ap.add_argument("--robot-only", action="store_true",
+                    help="only the hexapod's figures: speed, the physics' share (callgrind), the SDK loop")
     ap.add_argument("--firmware-only", action="store_true",
                     help="only the ATmega88 application's size, reply timing, sustained load and host cost")
     ap.add_argument("--elf", help="with --firmware-only: this ATmega88 ELF instead of the build's")
@@ -527,6 +579,15 @@ def main():
         print("\nbench: wrote %s" % a.out)
         return
 
+    if a.robot_only:
+        robot_figures(bench, emu, fw, elf, 3 if a.quick else 6, runs, row)
+        for _, name, value, unit, goal in rows:
+            print("%-70s %14s %-12s %s" % (name, "%.3f" % value if isinstance(value, float) else value, unit, goal))
+        with open(a.out, "w") as f:
+            json.dump(r, f, indent=1, sort_keys=True)
+        print("\nbench: wrote %s" % a.out)
+        return
+
     if a.sdk_loop_only:
         lines = sdk_loop_table(emu, fw, 3 if a.quick else 6, row, r)
         print("DynamixelSDK loop (SYNC_WRITE + a READ of every servo) through the pty, loops/s")
@@ -575,6 +636,7 @@ def main():
     row("real clients", "DynamixelSDK ping, median (wire)", ping, "ms", "", "sdk_ping_wire_median_ms")
     loop_table = sdk_loop_table(emu, fw, 3 if a.quick else 6, row, r)
     dashboard_cost(emu, fw, 3 if a.quick else 6, row)
+    robot_figures(bench, emu, fw, elf, 3 if a.quick else 6, runs, row)
 
     report = os.path.join(os.path.dirname(os.path.abspath(__file__)), "model_report")
     if os.path.exists(report):

@@ -27,6 +27,13 @@ double ax12_plant_joint_frictionloss_nm(const ax12_plant_t *plant, double drive_
            ax12_gearbox_sliding_friction_nm(&p->gearbox, drive_nm);
 }
 
+double ax12_plant_joint_holding_friction_nm(const ax12_plant_t *plant, double drive_nm)
+{
+    const ax12_plant_params_t *p = &plant->params;
+    return p->gearbox.ratio * ax12_motor_friction_nm(&p->motor) +
+           ax12_gearbox_breakaway_friction_nm(&p->gearbox, drive_nm);
+}
+
 double ax12_plant_joint_viscous_nm_s_rad(const ax12_plant_t *plant)
 {
     return plant->params.gearbox.viscous_nm_s_rad;
@@ -46,29 +53,40 @@ void ax12_plant_joint_step(ax12_plant_t *plant, double duty, double dt_s, ax12_j
     plant->state.angle_rad += w * dt_s;
     acc->applied_nm_s += (drive_nm + slope * w) * dt_s;
     acc->slope_nm_s2_rad += slope * dt_s;
-    acc->abs_drive_nm_s += fabs(drive_nm) * dt_s;
     acc->span_s += dt_s;
+}
+
+static double sign_of(double x)
+{
+    return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0);
 }
 
 ax12_joint_torque_t ax12_plant_joint_take(const ax12_plant_t *plant, ax12_joint_drive_t *acc)
 {
-    double applied_nm, slope, abs_drive_nm;
+    const double w = plant->state.speed_rad_s;
+    double applied_nm, slope;
     if (acc->span_s > 0.0) {
         applied_nm = acc->applied_nm_s / acc->span_s;
         slope = acc->slope_nm_s2_rad / acc->span_s;
-        abs_drive_nm = acc->abs_drive_nm_s / acc->span_s;
     } else {
-        const double w = plant->state.speed_rad_s;
         double drive_nm;
         drive_at(plant, plant->state.duty, w, &drive_nm, &slope);
         applied_nm = drive_nm + slope * w;
-        abs_drive_nm = fabs(drive_nm);
     }
     *acc = (ax12_joint_drive_t){0};
+    const double viscous = ax12_plant_joint_viscous_nm_s_rad(plant);
+    if (fabs(w) < AX12_JOINT_AT_REST_RAD_S) {
+        return (ax12_joint_torque_t){
+            .applied_nm = applied_nm,
+            .damping_nm_s_rad = viscous + slope,
+            .frictionloss_nm = ax12_plant_joint_holding_friction_nm(plant, applied_nm),
+        };
+    }
+    const double kept = ax12_gearbox_drive_share(&plant->params.gearbox, sign_of(applied_nm - slope * w), sign_of(w));
     return (ax12_joint_torque_t){
-        .applied_nm = applied_nm,
-        .damping_nm_s_rad = ax12_plant_joint_viscous_nm_s_rad(plant) + slope,
-        .frictionloss_nm = ax12_plant_joint_frictionloss_nm(plant, abs_drive_nm),
+        .applied_nm = kept * applied_nm,
+        .damping_nm_s_rad = viscous + kept * slope,
+        .frictionloss_nm = ax12_plant_joint_frictionloss_nm(plant, 0.0),
     };
 }
 

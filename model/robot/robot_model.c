@@ -154,8 +154,8 @@ static bool check(robot_model_t *r, char *err, size_t err_len) {
   r->steps_per_ms = steps_per_ms(m->opt.timestep);
   const double timestep_s = 1e-3 / r->steps_per_ms;
   if (fabs(timestep_s - m->opt.timestep) > 1e-12) {
-    fprintf(stderr, "robot: %s: timestep %g s stepped as %g s (the physics steps at 1 ms or a divisor of it)\n",
-            r->path, m->opt.timestep, timestep_s);
+    snprintf(r->note, sizeof(r->note), "its timestep %g s is stepped as %g s (the physics steps at 1 ms or a divisor of it)",
+             m->opt.timestep, timestep_s);
     m->opt.timestep = timestep_s;
   }
   r->start_key = mj_name2id(m, mjOBJ_KEY, ROBOT_START_KEY);

@@ -10,7 +10,7 @@
  * (-150..+150 deg), and so does its angle at the start (qpos0, or the keyframe "start" when
  * the model has one). The physics steps at 1 ms or a divisor of it, on whole cycles of the
  * 16 MHz clock: a model's timestep that is not one becomes the next one below it (2 ms, MuJoCo's
- * default, becomes 1 ms), said on stderr. Loading checks all of it before anything runs; what
+ * default, becomes 1 ms), which robot_model_t.note says. Loading checks all of it before anything runs; what
  * fails is one line in err.
  *
  * MuJoCo's warnings go to stderr as one line each ("robot: MuJoCo: ..."); its fatal errors
@@ -47,6 +47,7 @@ typedef struct {
   char name[64];             /* the model's name (<mujoco model=...>), else the file's stem */
   int start_key;             /* the keyframe "start", -1 when none */
   unsigned steps_per_ms;     /* 1 ms / timestep (the model's timestep is set to it) */
+  char note[160];            /* what loading changed (the timestep), for the user; "" when nothing */
   robot_binding_t bindings[ROBOT_MAX_BINDINGS];
   size_t binding_count;      /* in the order of the model's custom numerics */
 } robot_model_t;

@@ -151,8 +151,9 @@ static double gravity_torque_nm(rig_t *r, double angle_deg) {
 
 /* The arm lowered slowly onto Goal Position 512 (horizontal) with torque on: it sinks until
  * the drive of the compliance law, through the motor (the plant's torque at that duty) and
- * the gear friction that holds with it (the gears hold more than they lift), carries the
- * arm's weight. The predicted droop is the smallest error whose drive does. */
+ * the gear friction that turns with it (the gears hold more than they lift: the sinking arm
+ * back-drives them), carries the arm's weight. The predicted droop is the smallest error whose
+ * drive does. */
 static void droop_at_slope(uint8_t slope) {
   rig_t r;
   rig_open(&r, "pendulum", false, 1);
@@ -228,9 +229,8 @@ static void overload(bool shutdown) {
   run_ms(&r, 300);
   char err[256];
   assert_true(robot_physics_set_payload(&r.robot.physics, "tip", 2.5, err, sizeof err));
-  const double full_hold_nm =
-      ax12_plant_output_drive_nm(&r.servos[0]->plant, 1.0, 0.0) +
-      ax12_plant_joint_frictionloss_nm(&r.servos[0]->plant, ax12_plant_output_drive_nm(&r.servos[0]->plant, 1.0, 0.0));
+  const double full_drive_nm = ax12_plant_output_drive_nm(&r.servos[0]->plant, 1.0, 0.0);
+  const double full_hold_nm = full_drive_nm + ax12_plant_joint_holding_friction_nm(&r.servos[0]->plant, full_drive_nm);
   robot_physics_set_gravity(&r.robot.physics, true);
   assert_true(gravity_torque_nm(&r, 0.0) > full_hold_nm * 1.2);
   const sim_cycles_t on = r.h.world->now;
@@ -293,8 +293,9 @@ static void fall_alone(const double *deg, size_t n, double *t_s) {
   mjData *d = mj_makeData(m);
   ax12_plant_t plant;
   ax12_plant_init(&plant, NULL);
+  ax12_plant_joint_set_motion(&plant, 0.0, -1.0); /* turning, duty 0: the coasting joint's terms */
   ax12_joint_drive_t none = {0};
-  const ax12_joint_torque_t coast = ax12_plant_joint_take(&plant, &none); /* duty 0 */
+  const ax12_joint_torque_t coast = ax12_plant_joint_take(&plant, &none);
   const int dof = model.bindings[0].dof;
   m->dof_armature[dof] = ax12_plant_joint_armature_kg_m2(&plant);
   m->dof_damping[dof] = coast.damping_nm_s_rad;

@@ -259,6 +259,9 @@ static int load_robot(serve_options_t *o) {
       return EMU_EXIT_USAGE;
     }
   }
+  if (o->robot->note[0]) {
+    fprintf(stderr, "ax12-emu: --robot %s: %s\n", o->robot_spec, o->robot->note);
+  }
   return -1;
 }
 
