@@ -9,10 +9,8 @@ import asyncio
 import json
 import os
 import shutil
-import signal
 import socket
 import subprocess
-import sys
 import time
 
 import aiohttp
@@ -24,30 +22,10 @@ import ax12_control
 import ax12_table as T
 from ax12_packets import instruction_packet as packet
 from ax12_servo_port import transact
-from conftest import EMU, FIRMWARE_DIR
+from conftest import EMU, FIRMWARE_DIR, servo, wait_for, world
 
-REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
-WORLD = [sys.executable, os.path.join(REPO, "scripts", "ax12_world.py")]
 ELF = os.path.join(FIRMWARE_DIR, "ax12-ax12-atmega88.elf")
 CSV_HEADER = "time_us,end_us,sender,kind,id,code,code_name,params,checksum_ok,collision,line,raw"
-
-
-def world(*args):
-    return subprocess.run(WORLD + list(args), capture_output=True, text=True, timeout=30)
-
-
-def wait_for(predicate, timeout_s, what):
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(0.05)
-    pytest.fail("timed out waiting for " + what)
-
-
-def servo(status, slot):
-    return next(s for s in status["servos"] if s["slot"] == slot)
 
 
 def status_of(state_dir):
@@ -362,10 +340,13 @@ def test_the_hexapod_stands_up_with_dynamixel_sdk_holds_and_settles_with_torque_
         assert min(heights) > 0.12, heights  # standing: the body's centre 140 mm up at zero droop
         assert max(heights) - min(heights) <= STAND_HEIGHT_BOUND_M, heights
         positions = [read_position(i) for i in HEXAPOD_IDS]
+        print("standing: body centre %.4f..%.4f m over %d samples; positions %s" % (
+            min(heights), max(heights), len(heights), positions))
         assert all(abs(p - 512) <= 12 for p in positions), positions  # each joint near its goal, drooping
         sync(T.TORQUE_ENABLE, 1, 0)
         t_off, _ = body_height(tmp_path)
         wait_for(lambda: body_height(tmp_path)[0] > t_off + 3.0, 60, "3 s with torque off")
+        print("3 s after torque off: body centre %.4f m" % body_height(tmp_path)[1])
         assert body_height(tmp_path)[1] < 0.03  # back on the floor
     finally:
         port.closePort()
