@@ -308,12 +308,15 @@ double ax12_plant_temp_sense_mv(const ax12_plant_t *plant)
 
 /* ---- The shaft driven by a rigid-body engine (plant_joint.h) ---- */
 
+/* duty clamped to -1..+1, NaN as 0 (as ax12_plant_step takes it) */
+static double usable_duty(double duty)
+{
+    return isnan(duty) ? 0.0 : (duty > 1.0 ? 1.0 : (duty < -1.0 ? -1.0 : duty));
+}
+
 double ax12_plant_output_drive_nm(const ax12_plant_t *plant, double duty, double speed_rad_s)
 {
-    if (isnan(duty)) {
-        duty = 0.0;
-    }
-    duty = duty > 1.0 ? 1.0 : (duty < -1.0 ? -1.0 : duty);
+    duty = usable_duty(duty);
     const ax12_plant_params_t *p = &plant->params;
     const loop_t l = loop_at(plant, duty);
     return ax12_gearbox_drive_nm(&p->gearbox,
@@ -325,10 +328,7 @@ void ax12_plant_step_electrics(ax12_plant_t *plant, double duty, double dt_s, do
     if (!(dt_s > 0.0)) {
         return;
     }
-    if (isnan(duty)) {
-        duty = 0.0;
-    }
-    duty = duty > 1.0 ? 1.0 : (duty < -1.0 ? -1.0 : duty);
+    duty = usable_duty(duty);
     const ax12_plant_params_t *p = &plant->params;
     ax12_plant_state_t *s = &plant->state;
     s->duty = duty;

@@ -77,7 +77,6 @@ void robot_physics_step(robot_physics_t *p) {
   p->steps++;
 }
 
-double robot_physics_time_s(const robot_physics_t *p) { return p->data->time; }
 
 double robot_physics_joint_angle_rad(const robot_physics_t *p, size_t binding) {
   return p->data->qpos[p->robot->bindings[binding].qpos];

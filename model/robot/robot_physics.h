@@ -59,7 +59,6 @@ void robot_physics_set_joint(robot_physics_t *p, size_t binding, double applied_
 /* One timestep (the model's), the pushes under way applied. */
 void robot_physics_step(robot_physics_t *p);
 
-double robot_physics_time_s(const robot_physics_t *p);
 double robot_physics_joint_angle_rad(const robot_physics_t *p, size_t binding);
 double robot_physics_joint_speed_rad_s(const robot_physics_t *p, size_t binding);
 

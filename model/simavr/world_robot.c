@@ -84,4 +84,6 @@ void world_robot_detach(world_robot_t *r) {
   r->world = NULL;
 }
 
-double world_robot_time_s(const world_robot_t *r) { return robot_physics_time_s(&r->physics); }
+double world_robot_time_s(const world_robot_t *r) {
+  return (double)(r->physics.steps * r->period) / (double)SIM_CPU_HZ; /* exact, where MuJoCo's time sums timesteps */
+}

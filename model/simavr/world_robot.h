@@ -47,7 +47,7 @@ bool world_robot_attach(world_robot_t *robot, world_t *world, robot_model_t *mod
 /* Unbinds the servos (their plants stay where the joints left them) and frees the physics. */
 void world_robot_detach(world_robot_t *robot);
 
-/* The physics' time, simulated seconds since it was attached. */
+/* The physics' time, simulated seconds since it was attached: its steps times its timestep. */
 double world_robot_time_s(const world_robot_t *robot);
 
 #endif

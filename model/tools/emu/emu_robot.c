@@ -142,7 +142,7 @@ cJSON *emu_robot_pose_json(const world_robot_t *r) {
   const mjModel *m = r->model->model;
   const mjData *d = r->physics.data;
   cJSON *j = cJSON_CreateObject();
-  cJSON_AddNumberToObject(j, "time_s", d->time);
+  cJSON_AddNumberToObject(j, "time_s", world_robot_time_s(r));
   cJSON_AddNumberToObject(j, "steps", (double)r->physics.steps);
   /* every body's [x, y, z, qw, qx, qy, qz] in one raw array */
   const size_t per = 7u * (size_t)m->nbody;
@@ -363,7 +363,7 @@ cJSON *emu_robot_request(world_robot_t *r, const cJSON *req, char *err, size_t e
   cJSON *answer = cJSON_CreateObject();
   cJSON_AddBoolToObject(answer, "ok", true);
   cJSON_AddStringToObject(answer, "op", "robot");
-  cJSON_AddNumberToObject(answer, "time_s", robot_physics_time_s(&r->physics));
+  cJSON_AddNumberToObject(answer, "time_s", world_robot_time_s(r));
   cJSON_AddItemToObject(answer, "world", emu_robot_world_json(r));
   return answer;
 }
