@@ -1,11 +1,12 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The serve loop (contract in emu_serve.h): the world with its servos (emu_state_files.h) on
- * their plants, the pty bridge, the bus log, the control socket and the dashboard, the trace and
- * gdb (emu_debug_tools.h) opened; the boot until every servo listens; then runs of the
- * world of at most SLICE_US, cut at the next client byte, adapter hand-over, control event or
- * --play-bus row, each followed by the pty, the control socket, the played rows and the logs, and paced (pacing.h); at a stop
- * signal (emu_stop_signal.h) the settling, the state files, the trace, the statistics
- * (emu_stats.h) and the exit status. */
+ * their plants and the robot whose joints some drive (world_robot.h), the pty bridge, the bus
+ * log, the joint log and the scripted master of --play-bus, the control socket and the
+ * dashboard, the trace and gdb (emu_debug_tools.h) opened; the boot until every servo listens;
+ * then runs of the world of at most SLICE_US, cut at the next client byte, adapter hand-over,
+ * control event or --play-bus row, each followed by the pty, the control socket, the played
+ * rows and the logs, and paced (pacing.h); at a stop signal (emu_stop_signal.h) the settling,
+ * the state files, the trace, the statistics (emu_stats.h) and the exit status. */
 #include "emu_serve.h"
 
 #include <stdio.h>
