@@ -371,12 +371,16 @@ static double usable_duty(double duty)
     return isnan(duty) ? 0.0 : (duty > 1.0 ? 1.0 : (duty < -1.0 ? -1.0 : duty));
 }
 
-double ax12_plant_output_drive_nm(const ax12_plant_t *plant, double duty, double speed_rad_s)
+double ax12_plant_output_drive_nm(const ax12_plant_t *plant, double duty, double speed_rad_s,
+                                  double *slope_nm_s_rad)
 {
     const ax12_plant_params_t *p = &plant->params;
     loops_t ls;
     loops_at(plant, usable_duty(duty), &ls);
     const loop_t *l = loop_at(&ls, speed_rad_s);
+    if (slope_nm_s_rad != NULL) {
+        *slope_nm_s_rad = l->d1_nm_s;
+    }
     return ax12_gearbox_drive_nm(&p->gearbox,
                                  ax12_motor_torque_nm(&p->motor, loop_current_a(plant, l, speed_rad_s)));
 }

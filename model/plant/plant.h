@@ -87,8 +87,11 @@ double ax12_plant_case_temp_c(const ax12_plant_t *plant);
 
 /* The shaft driven by someone else (a rigid-body engine: plant_joint.h). The drive at the
  * output, N x Kt x winding current, at duty and output speed speed_rad_s, before the gears'
- * losses (ax12_gearbox_drive_share, the friction of plant_joint.h). */
-double ax12_plant_output_drive_nm(const ax12_plant_t *plant, double duty, double speed_rad_s);
+ * losses (ax12_gearbox_drive_share, the friction of plant_joint.h); *slope_nm_s_rad (when not
+ * NULL) its fall per rad/s there, the back-EMF's damping of the bridge's path at that speed
+ * (0 while the coasting bridge is open). */
+double ax12_plant_output_drive_nm(const ax12_plant_t *plant, double duty, double speed_rad_s,
+                                  double *slope_nm_s_rad);
 /* Steps the electrics and the heat by dt_s at duty (as ax12_plant_step) with the shaft turning
  * at state.speed_rad_s, which this does not change; friction_w: the friction's heat, into the
  * case. The mechanics are not integrated. */

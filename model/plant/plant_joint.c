@@ -2,18 +2,6 @@
 
 #include <math.h>
 
-/* Speed step of the drive's slope: the drive is linear in the speed at a given duty, so the
- * slope is exact at any step; a small one follows a bridge model that is not. */
-#define SLOPE_STEP_RAD_S 0.01
-
-static void drive_at(const ax12_plant_t *plant, double duty, double speed_rad_s, double *drive_nm,
-                     double *slope_nm_s_rad)
-{
-    *drive_nm = ax12_plant_output_drive_nm(plant, duty, speed_rad_s);
-    *slope_nm_s_rad =
-        (*drive_nm - ax12_plant_output_drive_nm(plant, duty, speed_rad_s + SLOPE_STEP_RAD_S)) / SLOPE_STEP_RAD_S;
-}
-
 double ax12_plant_joint_armature_kg_m2(const ax12_plant_t *plant)
 {
     const ax12_plant_params_t *p = &plant->params;
@@ -45,8 +33,8 @@ void ax12_plant_joint_step(ax12_plant_t *plant, double duty, double dt_s, ax12_j
         return;
     }
     const double w = plant->state.speed_rad_s;
-    double drive_nm, slope;
-    drive_at(plant, duty, w, &drive_nm, &slope);
+    double slope;
+    const double drive_nm = ax12_plant_output_drive_nm(plant, duty, w, &slope);
     const double friction_w = ax12_plant_joint_frictionloss_nm(plant, drive_nm) * fabs(w) +
                               ax12_plant_joint_viscous_nm_s_rad(plant) * w * w;
     ax12_plant_step_electrics(plant, duty, dt_s, friction_w);
@@ -69,9 +57,7 @@ ax12_joint_torque_t ax12_plant_joint_take(const ax12_plant_t *plant, ax12_joint_
         applied_nm = acc->applied_nm_s / acc->span_s;
         slope = acc->slope_nm_s2_rad / acc->span_s;
     } else {
-        double drive_nm;
-        drive_at(plant, plant->state.duty, w, &drive_nm, &slope);
-        applied_nm = drive_nm + slope * w;
+        applied_nm = ax12_plant_output_drive_nm(plant, plant->state.duty, w, &slope) + slope * w;
     }
     *acc = (ax12_joint_drive_t){0};
     const double viscous = ax12_plant_joint_viscous_nm_s_rad(plant);

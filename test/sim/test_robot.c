@@ -182,7 +182,7 @@ static void droop_at_slope(uint8_t slope) {
   for (int e = margin + 1; e < 200 && predicted < 0; e++) {
     const int drive = compliance_drive(e, margin, slope, punch, limit);
     const double duty = (double)(drive * 255 / 1023) / 255.0; /* OCR0A, floored */
-    const double drive_nm = ax12_plant_output_drive_nm(plant, duty, 0.0);
+    const double drive_nm = ax12_plant_output_drive_nm(plant, duty, 0.0, NULL);
     hold_nm = drive_nm + ax12_plant_joint_frictionloss_nm(plant, drive_nm);
     weight_nm = gravity_torque_nm(&r, -(double)e / COUNTS_PER_DEG);
     if (hold_nm >= weight_nm) {
@@ -229,7 +229,7 @@ static void overload(bool shutdown) {
   run_ms(&r, 300);
   char err[256];
   assert_true(robot_physics_set_payload(&r.robot.physics, "tip", 2.5, err, sizeof err));
-  const double full_drive_nm = ax12_plant_output_drive_nm(&r.servos[0]->plant, 1.0, 0.0);
+  const double full_drive_nm = ax12_plant_output_drive_nm(&r.servos[0]->plant, 1.0, 0.0, NULL);
   const double full_hold_nm = full_drive_nm + ax12_plant_joint_holding_friction_nm(&r.servos[0]->plant, full_drive_nm);
   robot_physics_set_gravity(&r.robot.physics, true);
   assert_true(gravity_torque_nm(&r, 0.0) > full_hold_nm * 1.2);
