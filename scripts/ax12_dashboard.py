@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The live dashboard of `scripts/ax12 serve --dashboard [HOST:]PORT` (docs/dashboard.md): a web
-page (web/dashboard, charts by uPlot from npm, installed by scripts/setup: nothing is fetched
-at run time) fed through a WebSocket from the emulator's control socket.
+page (web/dashboard, charts by uPlot and the robot's 3D view by three.js, both from npm,
+installed by scripts/setup: nothing is fetched at run time) fed through a WebSocket from the emulator's control socket.
 
 The server holds three connections to the control socket, subscribed only while a page is
 open: every servo at the update rate (ax12_headroom: 20 times a second while the machine has a
@@ -45,6 +45,7 @@ import ax12_headroom  # noqa: E402
 
 WEB = os.path.join(REPO, "web", "dashboard")
 UPLOT = os.path.join(WEB, "node_modules", "uplot", "dist")
+THREE = os.path.join(WEB, "node_modules", "three")  # its build/ and its addons (examples/jsm/)
 TELEMETRY_HZ = 20         # the selected servo's charts
 TABLE_HZ = 5              # the shown servo's control table
 POINTS_PERIOD_OFF_S = 1.0  # a page's chart points while its charts are off screen (else every whole event)
@@ -93,7 +94,8 @@ class Emulator:
                                              "packets": on}).encode() + b"\n")
         shown = sorted({slot for slot in self.selected.values() if isinstance(slot, int)})
         self.charts_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": TELEMETRY_HZ if on and shown else 0,
-                                             "table_hz": TABLE_HZ, "servos": shown}).encode() + b"\n")
+                                             "table_hz": TABLE_HZ, "servos": shown,
+                                             "robot": False}).encode() + b"\n")  # poses: in the whole events
         await self.events_writer.drain()
         await self.charts_writer.drain()
 
@@ -408,6 +410,8 @@ async def serve(args):
     app.router.add_get("/api/robot", robot)
     app.router.add_static("/static/", WEB)
     app.router.add_static("/uplot/", UPLOT)
+    app.router.add_static("/three/build/", os.path.join(THREE, "build"))
+    app.router.add_static("/three/addons/", os.path.join(THREE, "examples", "jsm"))
     runner = web.AppRunner(app, access_log=None)
     await runner.setup()
     host, port = args.listen
@@ -436,9 +440,10 @@ def main():
     args = parser.parse_args()
     import ax12_build
     ax12_build.ensure(args.build)
-    if not os.path.exists(os.path.join(UPLOT, "uPlot.iife.min.js")):
-        log("%s is missing: run scripts/setup (it installs uPlot with npm)" % UPLOT)
-        return 1
+    for asset in (os.path.join(UPLOT, "uPlot.iife.min.js"), os.path.join(THREE, "build", "three.module.js")):
+        if not os.path.exists(asset):
+            log("%s is missing: run scripts/setup (it installs uPlot and three.js with npm)" % asset)
+            return 1
     try:
         return asyncio.run(serve(args))
     except KeyboardInterrupt:
