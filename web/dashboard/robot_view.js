@@ -69,7 +69,7 @@ export class RobotView {
       if (geom.type === "plane") { planes.push(geom); continue; }
       const shape = geometry(geom, robot.meshes);
       if (!shape) continue;
-      const mesh = new THREE.Mesh(shape, this.material(geom.rgba));
+      const mesh = new THREE.Mesh(shape, this.material(geom.rgba, geom.type === "mesh"));
       mesh.position.fromArray(geom.pos);
       mesh.quaternion.copy(quaternion(geom.quat));
       mesh.userData.body = geom.body;
@@ -94,12 +94,14 @@ export class RobotView {
     this.highlighted = null;
   }
 
-  // One material per colour (the shipped robots have a handful).
-  material(rgba) {
-    const key = rgba.join(",");
+  // One material per colour (the shipped robots have a handful); a mesh's two-sided (a part's
+  // file may wind some of its triangles the wrong way round).
+  material(rgba, twoSided) {
+    const key = rgba.join(",") + (twoSided ? " both" : "");
     let m = this.materials.get(key);
     if (!m) {
-      m = new THREE.MeshLambertMaterial({ color: rgbColor(rgba), transparent: rgba[3] < 1, opacity: rgba[3] });
+      m = new THREE.MeshLambertMaterial({ color: rgbColor(rgba), transparent: rgba[3] < 1, opacity: rgba[3],
+        side: twoSided ? THREE.DoubleSide : THREE.FrontSide });
       this.materials.set(key, m);
     }
     return m;

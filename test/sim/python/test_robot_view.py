@@ -197,3 +197,59 @@ def test_the_3d_view_draws_the_robot_and_follows_servos_and_world_changes(emulat
         canvas_image(browser, "4-pushed")
     finally:
         port.closePort()
+
+
+SHAPES_MODEL = """<mujoco model="shapes">
+  <compiler angle="degree" autolimits="true"/>
+  <custom><numeric name="ax12:spin" data="1"/></custom>
+  <default><geom contype="0" conaffinity="0"/></default>
+  <asset>
+    <mesh name="tetra" vertex="0 0 0  0.06 0 0  0 0.06 0  0 0 0.06" face="0 2 1  0 1 3  0 3 2  1 2 3"/>
+  </asset>
+  <worldbody>
+    <geom name="floor" type="plane" size="0 0 0.05" rgba="0.85 0.85 0.82 1"/>
+    <geom name="box" type="box" size="0.03 0.03 0.03" pos="-0.15 0 0.03" rgba="1 0 0 1"/>
+    <geom name="sphere" type="sphere" size="0.03" pos="-0.05 0 0.03" rgba="0 1 0 1"/>
+    <geom name="capsule" type="capsule" size="0.02 0.03" pos="0.05 0 0.05" rgba="0 0 1 1"/>
+    <geom name="cylinder" type="cylinder" size="0.03 0.02" pos="0.15 0 0.02" rgba="1 1 0 1"/>
+    <geom name="ellipsoid" type="ellipsoid" size="0.04 0.02 0.015" pos="-0.1 0.12 0.015" rgba="1 0 1 1"/>
+    <geom name="mesh" type="mesh" mesh="tetra" pos="0.05 0.1 0" rgba="0 1 1 1"/>
+    <geom name="hidden" type="box" size="0.2 0.2 0.2" pos="0 0 0.2" group="3" rgba="1 0 0 1"/>
+    <body name="rotor" pos="0 -0.12 0.05">
+      <joint name="spin" type="hinge" axis="0 0 1" range="-150 150"/>
+      <geom name="rotor_bar" type="box" size="0.05 0.008 0.008" mass="0.05" rgba="0.5 0.5 0.5 1"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+SHAPE_COLOURS = {"box": (1, 0, 0), "sphere": (0, 1, 0), "capsule": (0, 0, 1), "cylinder": (1, 1, 0),
+                 "ellipsoid": (1, 0, 1), "mesh": (0, 1, 1)}
+
+
+def pixels_of_colour(image, rgb):
+    """Pixels of a pure colour (each channel full or none: red, yellow...) under any light."""
+    brightest = image.max(axis=2)
+    share = image / np.maximum(brightest, 1)[..., None]
+    full, none = share > 0.7, share < 0.3
+    pattern = np.array(rgb, bool)
+    return int(((brightest > 50) & (full | none).all(axis=2) & (full == pattern).all(axis=2)).sum())
+
+
+def test_every_geom_type_is_drawn_in_its_colour_and_hidden_groups_are_not(emulator, browser, tmp_path):
+    """A model of one geom of each type MuJoCo draws, each its own pure colour, on an infinite
+    floor (size 0), and a large box of the same red as the small one in group 3 (hidden): each
+    colour on the canvas, the red no more than the small box's."""
+    model = tmp_path / "shapes.xml"
+    model.write_text(SHAPES_MODEL)
+    port_number = free_port()
+    emulator("--realtime", "--robot", str(model), "--state-dir", str(tmp_path), "--dashboard", str(port_number))
+    browser.get("http://127.0.0.1:%d/" % port_number)
+    wait_for(lambda: browser.execute_script("return state.robotView && state.robotView.frames > 0"), 20,
+             "the 3D view's first frame")
+    time.sleep(0.5)
+    image = canvas_image(browser, "shapes")
+    drawn = {name: pixels_of_colour(image, rgb) for name, rgb in SHAPE_COLOURS.items()}
+    assert all(count > 300 for count in drawn.values()), drawn
+    assert drawn["box"] < 0.05 * image.shape[0] * image.shape[1], "the hidden box is drawn"
+    floor = (np.abs(image - np.array([216, 216, 209])).max(axis=2) < 30).mean()
+    assert floor > 0.2, "the floor is not drawn"
