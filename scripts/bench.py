@@ -164,7 +164,8 @@ def sdk_ping_median_ms(emu, firmware_dir, pings, adapter=DEFAULT_ADAPTER):
 
 def dashboard_page(port_number, view="top"):
     """A headless Chromium showing the dashboard at port_number, once it is live (Selenium),
-    scrolled to `view`: "top" (the servo list), "charts" (the overview and the charts)."""
+    scrolled to `view`: "top" (the servo list, below the 3D view with a robot), "charts" (the
+    overview and the charts). WebGL, with a robot, on SwiftShader (the CPU)."""
     import shutil
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
@@ -172,7 +173,8 @@ def dashboard_page(port_number, view="top"):
     options = webdriver.ChromeOptions()
     options.binary_location = shutil.which("chromium") or "chromium"
     # A laptop's screen (1366 x 768, the most common): the list and the charts in view.
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1366,768"):
+    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1366,768",
+                "--use-angle=swiftshader", "--enable-unsafe-swiftshader"):
         options.add_argument(arg)
     driver = webdriver.Chrome(service=Service(shutil.which("chromedriver") or "/usr/bin/chromedriver"),
                               options=options)
@@ -338,6 +340,32 @@ def dashboard_cost(emu, fw, seconds, row):
             statistics.median(updates[view]), "/s", "", "dashboard_updates_%s" % view)
     row("dashboard", "page at its charts, 3 servos and no client: updates drawn a second", dashboard_idle_rate(emu, fw),
         "/s", ">= 20", "dashboard_updates_idle")
+
+
+def dashboard_robot_cost(emu, fw, seconds, row):
+    """The same 30-servo SDK loop on the hexapod (`--robot hexapod --ids 1-30`: 18 servos on its
+    joints, 12 beside them; the goals sway about the standing pose) without the dashboard and
+    with its page open at the top (the robot's 3D view, drawn by SwiftShader on the CPU, and the
+    servo list), alternated three times in one run; the ratio against the mean without."""
+    views = (None, "top")
+    rates = {view: [] for view in views}
+    updates = []
+    for _ in range(3):
+        for view in views:
+            loop = sdk_client_loop(emu, fw, 30, seconds, dashboard=view, robot="hexapod")
+            rates[view].append(loop["loops_per_s"])
+            if view:
+                updates.append(loop["page_updates_per_s"])
+    without = statistics.mean(rates[None])
+    with_page = statistics.mean(rates["top"])
+    row("dashboard, robot", "30-servo SDK loop on the hexapod without the dashboard", without, "loops/s", "",
+        "dashboard_robot_loop_without")
+    row("dashboard, robot", "30-servo SDK loop on the hexapod, page open at its 3D view", with_page, "loops/s", "",
+        "dashboard_robot_loop_top")
+    row("dashboard, robot", "ratio, page at its 3D view / without (same run)", with_page / without, "", ">= 0.9",
+        "dashboard_robot_loop_ratio_top")
+    row("dashboard, robot", "page at its 3D view: updates drawn in the loop's last second (median)",
+        statistics.median(updates), "/s", "", "dashboard_robot_updates_top")
 
 
 def bootloader_figures(emu, fw, build, row):
@@ -508,7 +536,8 @@ def main():
     ap.add_argument("--sdk-loop-only", action="store_true",
                     help="only the DynamixelSDK loop per USB adapter kind and its wire-time floor")
     ap.add_argument("--dashboard-only", action="store_true",
-                    help="only the 30-servo SDK loop without and with the dashboard open")
+                    help="only the 30-servo SDK loop without and with the dashboard open (and on the hexapod, "
+                    "its 3D view open)")
     ap.add_argument("--bootloader-only", action="store_true",
                     help="only the bootloader's size and the time of an update over the bus")
     ap.add_argument("--robot-only", action="store_true",
@@ -572,6 +601,7 @@ def main():
 
     if a.dashboard_only:
         dashboard_cost(emu, fw, 3 if a.quick else 6, row)
+        dashboard_robot_cost(emu, fw, 3 if a.quick else 6, row)
         for _, name, value, unit, goal in rows:
             print("%-52s %10.3f %-8s %s" % (name, value, unit, goal))
         with open(a.out, "w") as f:
@@ -636,6 +666,7 @@ def main():
     row("real clients", "DynamixelSDK ping, median (wire)", ping, "ms", "", "sdk_ping_wire_median_ms")
     loop_table = sdk_loop_table(emu, fw, 3 if a.quick else 6, row, r)
     dashboard_cost(emu, fw, 3 if a.quick else 6, row)
+    dashboard_robot_cost(emu, fw, 3 if a.quick else 6, row)
     robot_figures(bench, emu, fw, elf, 3 if a.quick else 6, runs, row)
 
     report = os.path.join(os.path.dirname(os.path.abspath(__file__)), "model_report")
