@@ -455,6 +455,12 @@ def robot_figures(bench, emu, fw, elf, seconds, runs, row):
         x["holding_sim_s_per_wall_s"] for x in speeds), "x real time", ">= 1", "robot_hexapod_holding_fast")
     row("robot: hexapod", "18 servos + physics, unthrottled, zero-latency client loop", statistics.median(
         x["loaded_sim_s_per_wall_s"] for x in speeds), "x real time", ">= 1", "robot_hexapod_loaded_fast")
+    # per CPU second of the process: what the simulation makes of a core of its own, however
+    # busy the machine is
+    row("robot: hexapod", "the same, simulated seconds per CPU second: holding", statistics.median(
+        x["holding_sim_s_per_cpu_s"] for x in speeds), "x", "", "robot_hexapod_holding_per_cpu_s")
+    row("robot: hexapod", "the same, simulated seconds per CPU second: client loop", statistics.median(
+        x["loaded_sim_s_per_cpu_s"] for x in speeds), "x", ">= 1", "robot_hexapod_loaded_per_cpu_s")
     with tempfile.TemporaryDirectory(prefix="ax12-callgrind-") as d:
         out_file = os.path.join(d, "callgrind.out")
         run = subprocess.run(["valgrind", "--tool=callgrind", "--toggle-collect=bench_robot_loops",
