@@ -92,10 +92,12 @@ double ax12_plant_case_temp_c(const ax12_plant_t *plant);
  * (0 while the coasting bridge is open). */
 double ax12_plant_output_drive_nm(const ax12_plant_t *plant, double duty, double speed_rad_s,
                                   double *slope_nm_s_rad);
-/* Steps the electrics and the heat by dt_s at duty (as ax12_plant_step) with the shaft turning
- * at state.speed_rad_s, which this does not change; friction_w: the friction's heat, into the
- * case. The mechanics are not integrated. */
-void ax12_plant_step_electrics(ax12_plant_t *plant, double duty, double dt_s, double friction_w);
+/* Steps the electrics and the heat by dt_s at duty (as ax12_plant_step: the gears' friction
+ * heat included) with the shaft turning at state.speed_rad_s, which this does not change: the
+ * mechanics are not integrated. Returns the drive at that speed, as
+ * ax12_plant_output_drive_nm gives it, and its slope in *slope_nm_s_rad (when not NULL).
+ * dt_s <= 0 steps nothing. */
+double ax12_plant_step_electrics(ax12_plant_t *plant, double duty, double dt_s, double *slope_nm_s_rad);
 
 /* ADC inputs, mV, each clamped to the 0..5000 mV the pin can see. */
 double ax12_plant_pot_mv(const ax12_plant_t *plant);          /* ADC0 */

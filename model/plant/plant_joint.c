@@ -34,10 +34,7 @@ void ax12_plant_joint_step(ax12_plant_t *plant, double duty, double dt_s, ax12_j
     }
     const double w = plant->state.speed_rad_s;
     double slope;
-    const double drive_nm = ax12_plant_output_drive_nm(plant, duty, w, &slope);
-    const double friction_w = ax12_plant_joint_frictionloss_nm(plant, drive_nm) * fabs(w) +
-                              ax12_plant_joint_viscous_nm_s_rad(plant) * w * w;
-    ax12_plant_step_electrics(plant, duty, dt_s, friction_w);
+    const double drive_nm = ax12_plant_step_electrics(plant, duty, dt_s, &slope);
     plant->state.angle_rad += w * dt_s;
     acc->applied_nm_s += (drive_nm + slope * w) * dt_s;
     acc->slope_nm_s2_rad += slope * dt_s;

@@ -53,7 +53,6 @@ bool world_robot_attach(world_robot_t *r, world_t *world, robot_model_t *model, 
   r->world = world;
   r->model = model;
   r->period = SIM_CYCLES_PER_US * 1000u / model->steps_per_ms;
-  r->started = world->now;
   const ax12_load_t none = ax12_load_none();
   for (size_t i = 0; i < model->binding_count; i++) {
     servo_t *servo = servos[i];

@@ -31,7 +31,6 @@ typedef struct world_robot {
   robot_physics_t physics;
   servo_t *servos[ROBOT_MAX_BINDINGS]; /* by binding */
   sim_cycles_t period;                 /* the model's timestep in cycles */
-  sim_cycles_t started;                /* the world's time at the physics' time 0 */
   /* Optional: called after every physics step (the joint log of `serve --log-joints`). */
   void (*after_physics)(struct world_robot *robot, void *ctx);
   void *after_physics_ctx;

@@ -9,6 +9,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "bench_commands.h"
 #include "bench_rig.h"
@@ -47,6 +48,14 @@ static void sync_write_byte(bench_rig_t *r, const robot_model_t *model, uint8_t 
     params[n++] = value;
   }
   master_send(r->master, p, packet_encode(p, DXL_ID_BROADCAST, DXL_INST_SYNC_WRITE, params, n));
+}
+
+/* CPU seconds this process has used: a speed per CPU second is what the simulation makes of a
+ * core of its own, whatever else the machine runs. */
+static double cpu_s(void) {
+  struct timespec t;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return (double)t.tv_sec + (double)t.tv_nsec / 1e9;
 }
 
 /* The client loop until simulated time `until`; returns the loops completed. */
@@ -93,19 +102,21 @@ void bench_robot(const char *robot, double seconds) {
   world_run_until(r.world, r.world->now + MS(2000));
 
   const sim_cycles_t span = (sim_cycles_t)(seconds * 1e6 * SIM_CYCLES_PER_US);
-  double w0 = bench_wall_s();
+  double w0 = bench_wall_s(), c0 = cpu_s();
   world_run_until(r.world, r.world->now + span);
-  const double idle_speed = seconds / (bench_wall_s() - w0);
+  const double holding_wall = bench_wall_s() - w0, holding_cpu = cpu_s() - c0;
   const uint64_t steps0 = bot.physics.steps;
   w0 = bench_wall_s();
+  c0 = cpu_s();
   const sim_cycles_t t0 = r.world->now;
   const unsigned loops = bench_robot_loops(&r, &model, t0 + span);
-  const double loaded_wall = bench_wall_s() - w0;
+  const double loaded_wall = bench_wall_s() - w0, loaded_cpu = cpu_s() - c0;
   const double loaded_sim = (double)(r.world->now - t0) / SIM_CYCLES_PER_US / 1e6;
-  printf("{\"robot\": \"%s\", \"servos\": %zu, \"holding_sim_s_per_wall_s\": %.3f, \"loaded_sim_s_per_wall_s\": %.3f, "
-         "\"client_loops_per_sim_s\": %.1f, \"loaded_sim_s\": %.6f, \"physics_steps\": %llu}\n",
-         model.name, model.binding_count, idle_speed, loaded_sim / loaded_wall, loops / loaded_sim, loaded_sim,
-         (unsigned long long)(bot.physics.steps - steps0));
+  printf("{\"robot\": \"%s\", \"servos\": %zu, \"holding_sim_s_per_wall_s\": %.3f, \"holding_sim_s_per_cpu_s\": %.3f, "
+         "\"loaded_sim_s_per_wall_s\": %.3f, \"loaded_sim_s_per_cpu_s\": %.3f, \"client_loops_per_sim_s\": %.1f, "
+         "\"loaded_sim_s\": %.6f, \"physics_steps\": %llu}\n",
+         model.name, model.binding_count, seconds / holding_wall, seconds / holding_cpu, loaded_sim / loaded_wall,
+         loaded_sim / loaded_cpu, loops / loaded_sim, loaded_sim, (unsigned long long)(bot.physics.steps - steps0));
   world_robot_detach(&bot);
   bench_rig_close(&r);
   robot_model_free(&model);
