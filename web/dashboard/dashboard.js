@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The live dashboard's page: telemetry from the WebSocket into the servo list, uPlot charts of
 // the selected servo (the last HISTORY_S seconds), its control table (editable: each edit is a
-// WRITE the emulator puts on the bus), its world, and the bus monitor.
+// WRITE the emulator puts on the bus), its world, the bus monitor, and with a robot its 3D view
+// (robot_view.js) and its world.
 "use strict";
 
 const HISTORY_S = 15;
@@ -16,6 +17,9 @@ const state = {
   table: null,      // the selected servo's control table, as its last batch of points had it
   rate: null,       // the server's update rate: { hz, full_hz, idle_cores }
   frames: 0,        // frames drawn since the last second began (shown as updates a second)
+  robot: null,      // GET /api/robot's description (docs/robot.md), or null without a robot
+  robotView: null,  // its 3D view, once three.js is loaded (none without WebGL)
+  gravityHeldUntil: 0, // the gravity box, just clicked, is not reset by telemetry older than the change
 };
 
 const $ = (id) => document.getElementById(id);
@@ -217,6 +221,7 @@ function render() {
     renderServos();
     const s = event.servos.find((x) => x.slot === state.selected);
     if (s) setText($("world-now"), describeWorld(s.world));
+    if (event.robot && state.robot) showRobotPose(event.robot);
   }
   if (state.tableDirty) {
     state.tableDirty = false;
@@ -363,6 +368,89 @@ function applyWorld(event) {
   request({ type: "world", slot: state.selected, set });
 }
 
+// ---- robot --------------------------------------------------------------------------------
+
+// The robot's section: its 3D view (three.js is loaded only with a robot, and the page works
+// without WebGL, the view replaced by a line saying why) and the forms that change its world
+// as `scripts/ax12 world` does (docs/robot.md "The robot's world while it runs").
+async function startRobot(robot) {
+  state.robot = robot;
+  $("robot").hidden = false;
+  $("robot-name").textContent = robot.name;
+  const bodies = robot.bodies.slice(1).map((b) => b.name);
+  const preferred = defaultBody(robot);
+  for (const id of ["robot-payload-body", "robot-push-body"]) {
+    $(id).replaceChildren(...bodies.map((name) => new Option(name, name, false, name === preferred)));
+  }
+  $("robot-payload-form").addEventListener("submit", applyPayload);
+  $("robot-push-form").addEventListener("submit", applyPush);
+  $("robot-gravity").addEventListener("change", () => {
+    state.gravityHeldUntil = performance.now() + 1500;
+    request({ type: "robot", set: { gravity: $("robot-gravity").checked } });
+  });
+  showRobotPose(robot.pose);
+  try {
+    const { RobotView } = await import("/static/robot_view.js");
+    state.robotView = new RobotView($("robot-view"), robot, select);
+  } catch (e) {
+    $("robot-view").textContent = `No 3D view in this browser (${e.message || e}); the rest of the page works.`;
+    $("robot-view").className = "bad";
+    return;
+  }
+  state.robotView.highlight(state.selected);
+  $("robot-home").addEventListener("click", () => state.robotView.resetView());
+}
+
+// The body the forms offer first: a floating robot's base (a hexapod's body), else the end of
+// its longest chain (a pendulum's tip, an arm's gripper).
+function defaultBody(robot) {
+  const floating = robot.joints.find((j) => j.type === "free");
+  if (floating) return robot.bodies[floating.body].name;
+  const depth = (i) => (i <= 0 ? 0 : 1 + depth(robot.bodies[i].parent));
+  let deepest = 1;
+  robot.bodies.forEach((_, i) => { if (depth(i) >= depth(deepest)) deepest = i; });
+  return robot.bodies[deepest]?.name;
+}
+
+function showRobotPose(pose) {
+  if (state.robotView) state.robotView.setPose(pose);
+  const w = pose.world;
+  const parts = [`physics t = ${pose.time_s.toFixed(2)} s`, w.gravity ? "gravity on" : "gravity off"];
+  if (w.payloads.length) parts.push("payloads: " + w.payloads.map((p) => `${p.body} ${p.kg} kg`).join(", "));
+  for (const p of w.pushes) parts.push(`pushing ${p.body} with (${p.force_n.join(", ")}) N, ${p.seconds_left.toFixed(2)} s left`);
+  setText($("robot-now"), parts.join("; "));
+  if (performance.now() > state.gravityHeldUntil && $("robot-gravity").checked !== w.gravity) {
+    $("robot-gravity").checked = w.gravity;
+  }
+}
+
+// A field's number, or null with a message (the emulator checks the ranges, the page only
+// that a number was given).
+function numberOf(id, what) {
+  const text = $(id).value.trim();
+  const value = Number(text);
+  if (text === "" || !Number.isFinite(value)) {
+    say(`${what}: give a number`, false);
+    return null;
+  }
+  return value;
+}
+
+function applyPayload(event) {
+  event.preventDefault();
+  const kg = numberOf("robot-payload-kg", "payload kg");
+  if (kg === null) return;
+  request({ type: "robot", set: { payload: { body: $("robot-payload-body").value, kg } } });
+}
+
+function applyPush(event) {
+  event.preventDefault();
+  const force = [["robot-push-x", "push x"], ["robot-push-y", "push y"], ["robot-push-z", "push z"]].map(([id, what]) => numberOf(id, what));
+  const seconds = numberOf("robot-push-s", "push seconds");
+  if (force.includes(null) || seconds === null) return;
+  request({ type: "robot", set: { push: { body: $("robot-push-body").value, force_n: force, seconds } } });
+}
+
 // ---- bus monitor --------------------------------------------------------------------------
 
 // The filter: IDs separated by spaces or commas; packets without an ID (garbage) only when
@@ -453,6 +541,7 @@ function select(slot) {
   $("selected-name").textContent = s ? `${slot} (ID ${s.id ?? "?"})` : "–";
   buildTable();
   if (s) fillWorld(s);
+  if (state.robotView) state.robotView.highlight(slot);
   renderServos();
   drawCharts();
 }
@@ -561,6 +650,8 @@ function connect() {
 
 async function start() {
   state.items = await (await fetch("/api/items")).json();
+  const robot = (await (await fetch("/api/robot")).json()).robot;
+  if (robot) startRobot(robot);
   buildCharts();
   $("world-load-kind").addEventListener("change", showLoadFields);
   $("world-form").addEventListener("submit", applyWorld);

@@ -1,24 +1,28 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The serve loop (contract in emu_serve.h): the world with its servos (emu_state_files.h) on
- * their plants, the pty bridge, the bus log, the control socket and the dashboard, the trace and
- * gdb (emu_debug_tools.h) opened; in real time the state files written behind the simulation
- * (state_write_behind.h) and the real-time scheduling policy taken (emu_realtime.h); the boot
- * until every servo listens; then runs of the world of at most SLICE_US, cut at the next client
- * byte, adapter hand-over or control event, each followed by the pty, the control socket and
- * the bus log, and paced (pacing.h), the first WARM_UP_MS of them before `ready:`; at a stop
- * signal (emu_stop_signal.h) the settling, the state files, the trace, the statistics
- * (emu_stats.h) and the exit status. */
+ * their plants and the robot whose joints some drive (world_robot.h), the pty bridge, the bus
+ * log, the joint log and the scripted master of --play-bus, the control socket and the
+ * dashboard, the trace and gdb (emu_debug_tools.h) opened; in real time the state files written
+ * behind the simulation (state_write_behind.h) and the real-time scheduling policy taken
+ * (emu_realtime.h); the boot until every servo listens; then runs of the world of at most
+ * SLICE_US, cut at the next client byte, adapter hand-over, control event or --play-bus row,
+ * each followed by the pty, the control socket, the played rows and the logs, and paced
+ * (pacing.h), the first WARM_UP_MS of them before `ready:`; at a stop signal
+ * (emu_stop_signal.h) the settling, the state files, the trace, the statistics (emu_stats.h)
+ * and the exit status. */
 #include "emu_serve.h"
 
 #include <stdio.h>
 
 #include "eeprom_store.h"
 #include "emu_bus_log.h"
+#include "emu_bus_play.h"
 #include "emu_control.h"
 #include "emu_dashboard.h"
 #include "emu_debug_tools.h"
 #include "emu_firmware_choice.h"
 #include "emu_realtime.h"
+#include "emu_joint_log.h"
 #include "emu_state_files.h"
 #include "emu_stats.h"
 #include "emu_stop_signal.h"
@@ -28,6 +32,7 @@
 #include "servo_plant.h"
 #include "state_write_behind.h"
 #include "world.h"
+#include "world_robot.h"
 
 #define SLICE_US 100u
 #define BOOT_LIMIT_MS 2000u
@@ -81,6 +86,32 @@ static void announce_ready(const serve_options_t *o, const world_t *world, const
           world->servo_count == 1 ? "" : "s", eeprom_profile_name(o->profile), o->mcu,
           o->bootloader[0] ? ", bootloader" : "", pty->device, o->link ? " = " : "", o->link ? o->link : "",
           adapter_name, o->state_dir, o->realtime ? "real time" : "fast", saved);
+  if (o->robot) {
+    fprintf(stderr, "ax12-emu: robot %s (%s): %zu servo%s on its joints, physics every %g ms in lock-step\n",
+            o->robot->name, o->robot->path, o->robot->binding_count, o->robot->binding_count == 1 ? "" : "s",
+            1.0 / o->robot->steps_per_ms);
+  }
+}
+
+/* --robot: the model's joints bound to their servos (world_robot.h); a bound servo's world
+ * keeps no load of its own. False with a line on stderr. */
+static bool attach_robot(world_robot_t *robot, world_t *world, const serve_options_t *o, plant_options_t *worlds) {
+  servo_t *bound[ROBOT_MAX_BINDINGS] = {0};
+  for (size_t b = 0; b < o->robot->binding_count; b++) {
+    for (size_t i = 0; i < world->servo_count; i++) {
+      if (o->ids[i] == o->robot->bindings[b].id) {
+        bound[b] = world->servos[i];
+        worlds[i].load = ax12_load_none();
+        worlds[i].load_option = NULL;
+      }
+    }
+  }
+  char err[512];
+  if (!world_robot_attach(robot, world, o->robot, bound, err, sizeof(err))) {
+    fprintf(stderr, "ax12-emu: --robot: %s\n", err);
+    return false;
+  }
+  return true;
 }
 
 int emu_serve(const serve_options_t *o) {
@@ -111,6 +142,13 @@ int emu_serve(const serve_options_t *o) {
     plant_options_build(&worlds[i], &plant);
     servo_attach_plant(world->servos[i], &plant);
   }
+  static world_robot_t robot;
+  if (o->robot && !attach_robot(&robot, world, o, worlds)) {
+    emu_state_locks_release(&locks);
+    world_destroy(world);
+    return 1;
+  }
+  world_robot_t *robot_or_null = o->robot ? &robot : NULL;
   /* The pty starts at the first servo's baud, so a client that sets none still talks. */
   uint8_t first_baud = (uint8_t)o->baud_register;
   (void)eeprom_store_image_fields(world->servos[0]->eeprom, world->servos[0]->eeprom_size, NULL, &first_baud);
@@ -130,13 +168,24 @@ int emu_serve(const serve_options_t *o) {
     world_destroy(world);
     return 1;
   }
+  emu_joint_log_t joint_log = {0};
+  emu_bus_play_t play = o->play; /* its rows, read by the parser (o->play_bus NULL: none) */
+  if ((o->log_joints && emu_joint_log_start(&joint_log, o->log_joints, &robot, err, sizeof(err)) != 0) ||
+      (o->play_bus && emu_bus_play_start(&play, world, sim_baud_reg_to_bps(first_baud), err, sizeof(err)) != 0)) {
+    fprintf(stderr, "ax12-emu: %s\n", err);
+    (void)emu_bus_log_stop(&bus_logging, false);
+    pty_bridge_close(&pty);
+    emu_state_locks_release(&locks);
+    world_destroy(world);
+    return 1;
+  }
 
   static pacing_t pacing;            /* started before the boot; the control socket reports it */
   static emu_realtime_t realtime;
   static emu_control_t control;
   bool control_open = false;
   if (o->control_path[0]) {
-    control_open = emu_control_open(&control, o->control_path, world, &pty, worlds, o->ids, o->elf,
+    control_open = emu_control_open(&control, o->control_path, world, robot_or_null, &pty, worlds, o->ids, o->elf,
                                     &bus_logging.monitor, err, sizeof(err)) == 0;
     if (!control_open && o->control_explicit) {
       fprintf(stderr, "ax12-emu: %s\n", err);
@@ -251,8 +300,14 @@ int emu_serve(const serve_options_t *o) {
         until = next_control;
       }
     }
+    const sim_cycles_t next_play = emu_bus_play_next(&play); /* --play-bus: each row at its time */
+    if (next_play > world->now && next_play < until) {
+      until = next_play;
+    }
     world_run_until(world, until);
     emu_debug_after_run(&debug);
+    emu_bus_play_poll(&play, world->now);
+    emu_joint_log_tick(&joint_log);
     (void)pty_bridge_pump(&pty, o->realtime ? &pacing : NULL);
     if (control_open) {
       emu_control_poll(&control);
@@ -307,6 +362,10 @@ int emu_serve(const serve_options_t *o) {
     fprintf(stderr, "ax12-emu: %d state file write%s failed: %s\n", unwritten, unwritten == 1 ? "" : "s", err);
     failures += unwritten;
   }
+  const int joint_log_failed = o->robot ? emu_joint_log_stop(&joint_log, &robot) : 0;
+  if (o->robot) {
+    world_robot_detach(&robot);
+  }
   const bool traced = emu_debug_close_trace(&debug, world, true);
   if (failures) {
     for (size_t i = 0; i < world->servo_count; i++) {
@@ -321,7 +380,8 @@ int emu_serve(const serve_options_t *o) {
   const int log_failed = emu_bus_log_stop(&bus_logging, o->stats);
   pty_bridge_close(&pty);
   world_destroy(world);
+  emu_bus_play_free(&play);
   emu_state_locks_release(&locks); /* after the last state file was written */
-  return failures || log_failed || !traced ? 1 : 0;
+  return failures || log_failed || joint_log_failed || !traced ? 1 : 0;
 }
 

@@ -5,6 +5,11 @@
 
 #include "dxl_table.h"
 #include "eeprom_store.h"
+#include "emu_robot.h"
+
+const robot_binding_t *emu_servo_joint(const emu_servos_t *v, size_t index) {
+  return v->robot ? robot_model_binding(v->robot->model, v->slot_ids[index]) : NULL;
+}
 
 static const char *load_name(const ax12_load_t *load) {
   switch (load->kind) {
@@ -79,6 +84,14 @@ static cJSON *servo_json(const emu_servos_t *v, size_t index, bool with_table) {
     cJSON_AddNumberToObject(j, "supply_v", p.terminal_v);
     cJSON_AddNumberToObject(j, "load_torque_nm", p.load_torque_nm);
   }
+  const robot_binding_t *joint = emu_servo_joint(v, index);
+  if (joint) {
+    /* its load is the robot: gravity and the robot's motion on the joint (MuJoCo's bias
+     * force; contacts not counted) */
+    cJSON_AddStringToObject(j, "joint", joint->name);
+    cJSON_ReplaceItemInObject(j, "load_torque_nm",
+                              cJSON_CreateNumber(-v->robot->physics.data->qfrc_bias[joint->dof]));
+  }
   cJSON_AddItemToObject(j, "world", emu_world_json(&v->worlds[index]));
   return j;
 }
@@ -112,7 +125,7 @@ static cJSON *timing_json(const emu_servos_t *v) {
   return j;
 }
 
-cJSON *emu_status_json(const emu_servos_t *v, bool event, bool with_table, const bool *only_slots) {
+cJSON *emu_status_json(const emu_servos_t *v, bool event, bool with_table, const bool *only_slots, bool with_robot) {
   cJSON *j = cJSON_CreateObject();
   if (event) {
     cJSON_AddStringToObject(j, "event", "telemetry");
@@ -132,6 +145,9 @@ cJSON *emu_status_json(const emu_servos_t *v, bool event, bool with_table, const
       continue;
     }
     cJSON_AddItemToArray(servos, servo_json(v, i, with_table));
+  }
+  if (with_robot && v->robot) {
+    cJSON_AddItemToObject(j, "robot", emu_robot_pose_json(v->robot));
   }
   return j;
 }
