@@ -58,7 +58,7 @@
 
 /* DXL_OPAQUE(pointer): on the AVR, hides where pointer points from the optimiser (an empty
  * asm that may change it), so a function reaches the fields of a static object through it
- * with LDD/STD and a displacement (2 B) rather than LDS/STS at the object's address (4 B),
+ * with LDD/STD and a displacement (one word) rather than LDS/STS at the object's address (two),
  * which is what link-time constant propagation of &object would give. Nothing on the host. */
 #if defined(__AVR__)
 #define DXL_OPAQUE(pointer) __asm__("" : "+r"(pointer))
