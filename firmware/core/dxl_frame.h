@@ -1,8 +1,8 @@
 /* The framing rule (docs/policy.md "Framing and bus"), as one step per received byte: every
  * reader of the bus frames through it, so every reader cuts the same bytes into the same
  * packets whatever its timing. The servo's receive interrupt (firmware/hal), the link layer's
- * packet buffer (dxl_packet.h), the bootloader, the bus monitor of the simulator and the host
- * tests all call dxl_frame_step(); the receive interrupt's assembly (hal/uart_rx_isr.S) takes
+ * packet buffer (dxl_packet.h), the bus monitor of the simulator and the host tests all call
+ * dxl_frame_step(); the receive interrupt's assembly (hal/uart_rx_fast.S) takes
  * some states without the call, for the figures docs/firmware.md names, and sim_differential
  * holds it to this function.
  *
