@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 #include "fast_core.h"
+#include "fast_core_flags.h"
 
 #include <endian.h>
-#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -359,21 +359,6 @@ static inline bool load_is_plain(const avr_t *avr, uint16_t addr, uint16_t ramen
   return addr != R_SREG && !avr->io[io].r.c && !avr->io[io].irq;
 }
 
-/* SREG's eight flag bytes from its value: byte i is bit i (filled by fast_core_new). */
-static uint64_t sreg_bytes_of[256];
-
-static pthread_once_t sreg_bytes_filled = PTHREAD_ONCE_INIT;
-
-static void fill_sreg_bytes(void) {
-  for (unsigned v = 0; v < 256; v++) {
-    uint64_t bytes = 0;
-    for (unsigned i = 0; i < 8; i++) {
-      bytes |= (uint64_t)((v >> i) & 1) << (8 * i);
-    }
-    sreg_bytes_of[v] = bytes;
-  }
-}
-
 /* A write to SREG with no I/O handler or IRQ on it, as simavr's _avr_set_r does it: the byte,
  * the mirror (flag by flag, only I has a side effect: SEI's delay, or no interrupt), the byte. */
 static inline void sreg_write(avr_t *avr, uint8_t v) {
@@ -384,7 +369,7 @@ static inline void sreg_write(avr_t *avr, uint8_t v) {
   } else {
     avr->interrupt_state = 0;
   }
-  memcpy(avr->sreg, &sreg_bytes_of[v], 8);
+  memcpy(avr->sreg, &fc_flags.sreg[v], 8);
   avr->data[R_SREG] = v;
 }
 
@@ -458,55 +443,7 @@ static __attribute__((noinline)) uint8_t load_slow(avr_t *avr, uint16_t addr) {
   return avr->data[addr];
 }
 
-/* ---- flags ---- */
-
-static inline void flags_zns(uint8_t *s, uint8_t res) {
-  s[S_Z] = res == 0;
-  s[S_N] = (res >> 7) & 1;
-  s[S_S] = s[S_N] ^ s[S_V];
-}
-
-static inline void flags_add(uint8_t *s, uint8_t res, uint8_t rd, uint8_t rr) {
-  const uint8_t carries = (uint8_t)((rd & rr) | (rr & ~res) | (~res & rd));
-  const uint8_t v = (((rd & rr & ~res) | (~rd & ~rr & res)) >> 7) & 1;
-  const uint8_t n = (res >> 7) & 1;
-  s[S_H] = (carries >> 3) & 1;
-  s[S_C] = (carries >> 7) & 1;
-  s[S_V] = v;
-  s[S_Z] = res == 0;
-  s[S_N] = n;
-  s[S_S] = n ^ v;
-}
-
-/* Subtraction: H, C, V, N, S; Z as given (plain, or kept-zero for SBC/CPC/SBCI). */
-static inline void flags_sub(uint8_t *s, uint8_t res, uint8_t rd, uint8_t rr, uint8_t z) {
-  const uint8_t borrows = (uint8_t)((~rd & rr) | (rr & res) | (res & ~rd));
-  const uint8_t v = (((rd & ~rr & ~res) | (~rd & rr & res)) >> 7) & 1;
-  const uint8_t n = (res >> 7) & 1;
-  s[S_H] = (borrows >> 3) & 1;
-  s[S_C] = (borrows >> 7) & 1;
-  s[S_V] = v;
-  s[S_Z] = z;
-  s[S_N] = n;
-  s[S_S] = n ^ v;
-}
-
-static inline void flags_logic(uint8_t *s, uint8_t res) {
-  const uint8_t n = (res >> 7) & 1;
-  s[S_V] = 0;
-  s[S_Z] = res == 0;
-  s[S_N] = n;
-  s[S_S] = n;
-}
-
-static inline void flags_shift_right(uint8_t *s, uint8_t res, uint8_t before) {
-  const uint8_t c = before & 1, n = res >> 7;
-  s[S_Z] = res == 0;
-  s[S_C] = c;
-  s[S_N] = n;
-  s[S_V] = n ^ c;
-  s[S_S] = c; /* N ^ V = N ^ N ^ C */
-}
+/* ---- flags (fast_core_flags.h) ---- */
 
 static inline void flags_word(uint8_t *s, uint16_t res, uint8_t v, uint8_t c) {
   const uint8_t n = (res >> 15) & 1;
@@ -792,27 +729,33 @@ op_invalid:
    * only while the result is zero, for SBC/CPC/SBCI); store: the result goes to Rd. */
 #define ADD_FORM(rr_value, with_carry)                                                                                 \
   {                                                                                                                    \
-    const uint8_t vd = data[e->d], vr = (rr_value);                                                                    \
-    const uint8_t res = (uint8_t)(vd + vr + ((with_carry) ? s[S_C] : 0));                                              \
+    uint32_t index;                                                                                                    \
+    const uint8_t res = (with_carry) ? fc_add8(data[e->d], (rr_value), s[S_C], &index)                                \
+                                     : fc_add8_nc(data[e->d], (rr_value), &index);                                     \
     data[e->d] = res;                                                                                                  \
-    flags_add(s, res, vd, vr);                                                                                         \
+    fc_sreg_merge(s, FC_ARITH, fc_flags.arith[index]);                                                                 \
     NEXT(1, 2);                                                                                                        \
   }
 #define SUB_FORM(rr_value, with_carry, store)                                                                          \
   {                                                                                                                    \
-    const uint8_t vd = data[e->d], vr = (rr_value);                                                                    \
-    const uint8_t res = (uint8_t)(vd - vr - ((with_carry) ? s[S_C] : 0));                                              \
+    uint32_t index;                                                                                                    \
+    const uint8_t res = (with_carry) ? fc_sub8(data[e->d], (rr_value), s[S_C], &index)                                \
+                                     : fc_sub8_nc(data[e->d], (rr_value), &index);                                     \
     if (store) {                                                                                                       \
       data[e->d] = res;                                                                                                \
     }                                                                                                                  \
-    flags_sub(s, res, vd, vr, (with_carry) ? (res ? 0 : s[S_Z]) : res == 0);                                           \
+    if (with_carry) {                                                                                                  \
+      fc_sreg_merge_keep_zero(s, fc_flags.arith[index]);                                                               \
+    } else {                                                                                                           \
+      fc_sreg_merge(s, FC_ARITH, fc_flags.arith[index]);                                                               \
+    }                                                                                                                  \
     NEXT(1, 2);                                                                                                        \
   }
 #define LOGIC_FORM(operator, rr_value)                                                                                 \
   {                                                                                                                    \
     const uint8_t res = data[e->d] operator(rr_value);                                                                 \
     data[e->d] = res;                                                                                                  \
-    flags_logic(s, res);                                                                                               \
+    fc_sreg_merge(s, FC_ZNVS, fc_flags.logic[res]);                                                                    \
     NEXT(1, 2);                                                                                                        \
   }
 op_add:
@@ -1011,8 +954,7 @@ op_pop: {
 op_com: {
   const uint8_t res = (uint8_t)(0xff - data[e->d]);
   data[e->d] = res;
-  flags_logic(s, res);
-  s[S_C] = 1;
+  fc_sreg_merge(s, FC_CZNVS, fc_flags.logic[res] | 1u); /* C = 1 */
   NEXT(1, 2);
 }
 op_neg: {
@@ -1020,9 +962,8 @@ op_neg: {
   const uint8_t res = (uint8_t)(0 - vd);
   data[e->d] = res;
   s[S_H] = ((res >> 3) | (vd >> 3)) & 1;
-  s[S_V] = res == 0x80;
   s[S_C] = res != 0;
-  flags_zns(s, res);
+  fc_sreg_merge(s, FC_ZNVS, fc_flags.inc[res]); /* V: res is 0x80, as after INC */
   NEXT(1, 2);
 }
 op_swap: {
@@ -1033,36 +974,34 @@ op_swap: {
 op_inc: {
   const uint8_t res = (uint8_t)(data[e->d] + 1);
   data[e->d] = res;
-  s[S_V] = res == 0x80;
-  flags_zns(s, res);
+  fc_sreg_merge(s, FC_ZNVS, fc_flags.inc[res]);
   NEXT(1, 2);
 }
 op_dec: {
   const uint8_t res = (uint8_t)(data[e->d] - 1);
   data[e->d] = res;
-  s[S_V] = res == 0x7f;
-  flags_zns(s, res);
+  fc_sreg_merge(s, FC_ZNVS, fc_flags.dec[res]);
   NEXT(1, 2);
 }
 op_asr: {
   const uint8_t vd = data[e->d];
   const uint8_t res = (uint8_t)((vd >> 1) | (vd & 0x80));
   data[e->d] = res;
-  flags_shift_right(s, res, vd);
+  fc_sreg_merge(s, FC_CZNVS, fc_flags.shift[(vd & 1u) << 8 | res]);
   NEXT(1, 2);
 }
 op_lsr: {
   const uint8_t vd = data[e->d];
   const uint8_t res = vd >> 1;
   data[e->d] = res;
-  flags_shift_right(s, res, vd); /* N = 0 */
+  fc_sreg_merge(s, FC_CZNVS, fc_flags.shift[(vd & 1u) << 8 | res]); /* N = 0 */
   NEXT(1, 2);
 }
 op_ror: {
   const uint8_t vd = data[e->d];
   const uint8_t res = (uint8_t)((s[S_C] ? 0x80 : 0) | vd >> 1);
   data[e->d] = res;
-  flags_shift_right(s, res, vd);
+  fc_sreg_merge(s, FC_CZNVS, fc_flags.shift[(vd & 1u) << 8 | res]);
   NEXT(1, 2);
 }
 op_adiw: {
@@ -1319,7 +1258,7 @@ fast_core_t *fast_core_new(const avr_t *avr) {
     free(core);
     return NULL;
   }
-  (void)pthread_once(&sreg_bytes_filled, fill_sreg_bytes);
+  fc_flags_init();
   fc_handlers_t handlers;
   (void)run(NULL, NULL, 0, &handlers);
   for (uint32_t i = 0; i < core->words; i++) {
