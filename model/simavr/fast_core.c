@@ -1,6 +1,7 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 #include "fast_core.h"
 #include "fast_core_flags.h"
+#include "fast_interrupts.h"
 
 #include <endian.h>
 #include <stdlib.h>
@@ -305,33 +306,10 @@ static inline void sreg_set(avr_t *avr, uint8_t flag, uint8_t v) {
   avr->sreg[flag] = v;
 }
 
-/* avr_raise_irq_float(irq, v, floating) of simavr 1.6, without the call when nothing hooks the
- * IRQ (no trace, no part listens): the value and flags it leaves, set here. With a hook,
- * simavr's own. */
-static inline void irq_raise_float(avr_irq_t *irq, uint32_t v, int floating) {
-  if (irq->hook) {
-    avr_raise_irq_float(irq, v, floating);
-    return;
-  }
-  const uint32_t out = (irq->flags & IRQ_FLAG_NOT) ? !v : v;
-  if (irq->value == out && (irq->flags & IRQ_FLAG_FILTERED) && !(irq->flags & IRQ_FLAG_INIT)) {
-    return;
-  }
-  irq->flags &= ~(IRQ_FLAG_INIT | IRQ_FLAG_FLOATING);
-  if (floating) {
-    irq->flags |= IRQ_FLAG_FLOATING;
-  }
-  irq->value = out;
-}
-
-static inline void irq_raise(avr_irq_t *irq, uint32_t v) {
-  irq_raise_float(irq, v, !!(irq->flags & IRQ_FLAG_FLOATING));
-}
-
 static void raise_io_irqs(avr_irq_t *irq, uint8_t v) {
-  irq_raise(irq + AVR_IOMEM_IRQ_ALL, v);
+  fast_irq_raise(irq + AVR_IOMEM_IRQ_ALL, v);
   for (int i = 0; i < 8; i++) {
-    irq_raise(irq + i, (v >> i) & 1);
+    fast_irq_raise(irq + i, (v >> i) & 1);
   }
 }
 
@@ -461,22 +439,6 @@ static void invalid_opcode(avr_t *avr, uint32_t pc) {
 
 /* ---- interrupts: entry and return, as simavr 1.6's sim_interrupts.c ---- */
 
-DEFINE_FIFO(avr_int_vector_p, avr_int_pending);
-
-static inline int pending_count(avr_t *avr) { return !avr_int_pending_isempty(&avr->interrupts.pending); }
-
-/* avr_clear_interrupt, for the vector being entered. */
-static void clear_entered(avr_t *avr, avr_int_vector_t *vector) {
-  vector->pending = 0;
-  irq_raise(vector->irq + AVR_INT_IRQ_PENDING, 0);
-  const int pending = pending_count(avr);
-  irq_raise_float(avr->interrupts.irq + AVR_INT_IRQ_PENDING,
-                  pending ? avr_int_pending_read_at(&avr->interrupts.pending, 0)->vector : 0, !pending);
-  if (vector->raised.reg && !vector->raise_sticky) {
-    avr_regbit_clear(avr, vector->raised);
-  }
-}
-
 /* The return address of an interrupt: simavr's _avr_push_addr with this core's stores. */
 static void push_return(avr_t *avr, uint32_t pc) {
   const uint16_t ramend = avr->ramend;
@@ -517,23 +479,23 @@ void fast_core_enter_interrupt(avr_t *avr) {
    * before the read, as Debian's build of simavr 1.6 computes it). */
   const unsigned slot = (table->pending.read + (unsigned)at) % avr_int_pending_fifo_size;
   table->pending.buffer[slot] = avr_int_pending_read(&table->pending);
-  irq_raise(table->irq + AVR_INT_IRQ_PENDING, (uint32_t)pending_count(avr));
+  fast_irq_raise(table->irq + AVR_INT_IRQ_PENDING, (uint32_t)fast_pending_any(avr));
   if (!avr_regbit_get(avr, vector->enable) || !vector->pending) {
     vector->pending = 0; /* disabled or cleared meanwhile */
-    avr->interrupt_state = (int8_t)pending_count(avr);
+    avr->interrupt_state = (int8_t)fast_pending_any(avr);
     return;
   }
   push_return(avr, avr->pc);
   sreg_set(avr, S_I, 0);
   avr->pc = (avr_flashaddr_t)(vector->vector * avr->vector_size);
-  irq_raise(vector->irq + AVR_INT_IRQ_RUNNING, 1);
-  irq_raise(table->irq + AVR_INT_IRQ_RUNNING, vector->vector);
+  fast_irq_raise(vector->irq + AVR_INT_IRQ_RUNNING, 1);
+  fast_irq_raise(table->irq + AVR_INT_IRQ_RUNNING, vector->vector);
   if (table->running_ptr == sizeof(table->running) / sizeof(table->running[0])) {
     AVR_LOG(avr, LOG_ERROR, "%s: nested interrupts past simavr's stack of them\n", __func__);
   } else {
     table->running[table->running_ptr++] = vector;
   }
-  clear_entered(avr, vector);
+  fast_clear_interrupt(avr, vector);
 }
 
 /* avr_interrupt_reti: the running interrupt ends. */
@@ -541,10 +503,10 @@ static void interrupt_return(avr_t *avr) {
   avr_int_table_p table = &avr->interrupts;
   if (table->running_ptr) {
     avr_int_vector_t *vector = table->running[--table->running_ptr];
-    irq_raise(vector->irq + AVR_INT_IRQ_RUNNING, 0);
+    fast_irq_raise(vector->irq + AVR_INT_IRQ_RUNNING, 0);
   }
-  irq_raise(table->irq + AVR_INT_IRQ_RUNNING, table->running_ptr > 0 ? table->running[table->running_ptr - 1]->vector : 0);
-  irq_raise(table->irq + AVR_INT_IRQ_PENDING, (uint32_t)pending_count(avr));
+  fast_irq_raise(table->irq + AVR_INT_IRQ_RUNNING, table->running_ptr > 0 ? table->running[table->running_ptr - 1]->vector : 0);
+  fast_irq_raise(table->irq + AVR_INT_IRQ_PENDING, (uint32_t)fast_pending_any(avr));
 }
 
 /* ---- the interpreter ----
