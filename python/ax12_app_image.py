@@ -6,6 +6,11 @@ flash pages, and its application record.
 - load(path) reads a HEX file (intelhex) or raises ImageError with a message naming the file;
 - image.check_target(mcu, app_area_bytes, page_bytes) refuses an image built for another
   part or too large for the application area less its record page;
+- image.check_flashable() refuses, before any servo is asked anything, an image no servo's
+  bootloader takes: not an application, for a part without a bootloader, or too large for its
+  part's application area (a merged HEX with the bootloader in it, say);
+- area_text(app_area_bytes, page_bytes) names the application area and its parts, the one
+  wording of every message about it;
 - image.pages(page_bytes) are the (address, bytes) to write, the last one padded with 0xFF;
 - record_page(length, crc, page_bytes) is the record page, as firmware/boot/boot_image.c
   builds it;
@@ -47,6 +52,20 @@ def record_page(length, crc, page_bytes):
     (16 bits each, little-endian), the rest 0xFF."""
     record = RECORD_MAGIC + length.to_bytes(2, "little") + crc.to_bytes(2, "little")
     return record + bytes([ERASED]) * (page_bytes - len(record))
+
+
+def part_application_area(mcu):
+    """(application area bytes, page bytes) of a part with a bootloader, from its facts
+    (ax12_fuses.MCUS): the flash below the boot section, the record page included."""
+    part = ax12_fuses.MCUS[mcu]
+    return part.flash_bytes - part.boot_section_bytes, part.page_bytes
+
+
+def area_text(app_area_bytes, page_bytes):
+    """The application area as every message names it: the image's part and the record's."""
+    record_at = app_area_bytes - page_bytes
+    return (f"application area 0x0000-0x{app_area_bytes - 1:04X}: the image 0x0000-0x{record_at - 1:04X} "
+            f"({record_at} B at most), its record 0x{record_at:04X}-0x{app_area_bytes - 1:04X}")
 
 
 def _words(data, count):
@@ -101,14 +120,33 @@ class AppImage:
         application area (app_area_bytes, the record page included) less the record page."""
         built_for = self.built_for
         if built_for is None:
-            raise ImageError(f"{self.path}: its first bytes are not an AVR vector table "
-                             f"(26 JMP or RJMP instructions): not an Open AX-12 application")
+            raise ImageError(self._not_an_application())
         if built_for != mcu:
             raise ImageError(f"{self.path} is built for the {built_for}, the servo is an {mcu}")
         limit = app_area_bytes - page_bytes
         if len(self.data) > limit:
-            raise ImageError(f"{self.path} is {len(self.data)} B: larger than the {mcu}'s application "
-                             f"area, {limit} B (0x0000-0x{limit - 1:04X})")
+            merged = (" (it reaches into the boot section: a HEX with the bootloader in it is for "
+                      "`scripts/ax12 flash-isp`; `flash` takes the application alone, "
+                      "ax12-<profile>-<mcu>.hex)" if len(self.data) > app_area_bytes else "")
+            raise ImageError(f"{self.path} is {len(self.data)} B, more than the {mcu}'s "
+                             f"{area_text(app_area_bytes, page_bytes)}{merged}")
+
+    def check_flashable(self):
+        """Raises ImageError unless some servo's bootloader could take the image: an
+        application's vector table, for a part with a bootloader (ax12_fuses.BOOTLOADER_MCUS),
+        fitting that part's application area. Checked before a servo is asked into its
+        bootloader, so a refused file never leaves one there."""
+        built_for = self.built_for
+        if built_for is None:
+            raise ImageError(self._not_an_application())
+        if built_for not in ax12_fuses.BOOTLOADER_MCUS:
+            raise ImageError(f"{self.path} is built for the {built_for}, which has no bootloader: "
+                             f"no servo takes it over the bus (write it over ISP: `scripts/ax12 flash-isp`)")
+        self.check_target(built_for, *part_application_area(built_for))
+
+    def _not_an_application(self):
+        return (f"{self.path}: its first bytes are not an AVR vector table "
+                f"(26 JMP or RJMP instructions): not an Open AX-12 application")
 
     def pages(self, page_bytes):
         """[(address, page_bytes bytes)] covering the image, the last padded with 0xFF."""
@@ -153,7 +191,7 @@ def merged_hex(image, boot_hex_path, mcu):
     ImageError when the image does not fit or is for another part, or when the bootloader's
     HEX holds bytes outside the boot section."""
     part = ax12_fuses.MCUS[mcu]
-    boot_start = part.flash_bytes - part.boot_section_bytes
+    boot_start, _ = part_application_area(mcu)
     image.check_target(mcu, boot_start, part.page_bytes)
     try:
         boot = IntelHex(boot_hex_path)

@@ -3,16 +3,20 @@
 """scripts/ax12 flash: writes a new application to one servo over the Dynamixel bus, through
 its bootloader (docs/bootloader.md, section "Updating over the bus").
 
-Steps: the file is read and checked (python/ax12_app_image.py) before anything is sent; INFO
-to the servo (an application is asked into its bootloader with instruction 0x0A "BOOT"); the
-image checked against the part and the application area INFO gives; BEGIN, every PAGE (each
-tried again, up to --retries more times, after a lost or garbled answer or a CRC or read-back
-error), END; every page and the record read back and compared (unless --no-verify); GO; then
-the application must answer a PING and a READ of its Model Number and Firmware Version.
-Progress and steps on stderr, the result on stdout.
+Steps: the file is read and checked (python/ax12_app_image.py) before anything is sent, against
+its own part's facts too (a part with a bootloader, its application area); INFO to the servo (an
+application is asked into its bootloader with instruction 0x0A "BOOT"); the image checked
+against the part and the application area INFO gives; BEGIN, every PAGE (each tried again, up
+to --retries more times, after a lost or garbled answer or a CRC or read-back error), END; every
+page and the record read back and compared (unless --no-verify); GO; then the application must
+answer a PING and a READ of its Model Number and Firmware Version. A servo this command asked
+into its bootloader and then refused (another part, another application area, Ctrl-C) before
+BEGIN is sent GO, so it runs its application again. Progress and steps on stderr, the result on
+stdout; every error one line on stderr, a port lost mid-update (the adapter unplugged, the
+emulator gone) included.
 
-Exit status: 0 done; 1 the servo or the transfer failed (the message says where); 2 a bad
-file, a file for another part or too large, bad arguments, or a port that cannot be opened.
+Exit status: 0 done; 1 the servo, the port or the transfer failed (the message says where); 2 a
+bad file, a file for another part or too large, bad arguments, or a port that cannot be opened.
 """
 import argparse
 import os
@@ -101,8 +105,9 @@ def open_serial(device, baud):
         raise BadInput(f"cannot open {device} at {baud} bps: {error}")
 
 
-def enter_bootloader(client, baud, boot):
-    """The BootInfo of the servo's bootloader, asking a running application into it first."""
+def enter_bootloader(client, baud, boot, asked=None):
+    """The BootInfo of the servo's bootloader, asking a running application into it first
+    (then asked(), before the request goes out)."""
     answer = client.info(attempts=2)
     if answer is not None and boot.parse_info(answer.params):
         return boot.parse_info(answer.params)
@@ -114,6 +119,8 @@ def enter_bootloader(client, baud, boot):
         raise boot.BootError(f"servo {client.ident} answers INFO with error 0x{answer.code:02X} and "
                              f"{len(answer.params)} parameters: neither an application nor the bootloader")
     say(f"servo {client.ident} runs its application: asking it into the bootloader")
+    if asked is not None:
+        asked()
     reply = client.request_bootloader()
     if reply is not None and reply.code & boot.ERR_INSTRUCTION:
         raise boot.BootError(f"servo {client.ident}'s application does not know instruction 0x0A \"BOOT\": "
@@ -128,9 +135,11 @@ def enter_bootloader(client, baud, boot):
                          f"of the request to enter it")
 
 
-def write_image(client, image, info, verify, image_module):
-    """BEGIN, the pages, END, and (verify) every page and the record read back."""
+def write_image(client, image, info, verify, image_module, begun=None):
+    """BEGIN (begun() first), the pages, END, and (verify) every page and the record read back."""
     pages = image.pages(info.page_bytes)
+    if begun is not None:
+        begun()
     client.begin(len(image.data), image.crc)
     progress = Progress("writing", len(pages))
     for done, (address, data) in enumerate(pages, 1):
@@ -187,6 +196,30 @@ def start_application(client, boot, retries):
     raise boot.BootError(f"servo {client.ident} is still in its bootloader after GO ({retries + 1} attempts)")
 
 
+def restart_application(client, boot):
+    """GO to a servo this command asked into its bootloader and wrote nothing to, and the
+    application's answer: one line on stderr either way. False when it does not run again."""
+    try:
+        client.go()
+        started = application_answer(client, boot) != STILL_IN_BOOTLOADER
+    except boot.BootError:
+        started = False
+    say(f"servo {client.ident}: nothing written; " + (
+        "its application runs again" if started else
+        "sent GO, but it did not start its application: it answers as a bootloader at its ID; run the command again"))
+    return started
+
+
+def port_errors():
+    """What a serial port raises when it goes away under a transfer: the device unplugged, the
+    emulator behind a pty gone (pyserial's SerialException, OSError from a write, termios.error
+    from a flush)."""
+    import termios
+
+    import serial
+    return (serial.SerialException, OSError, termios.error)
+
+
 def main(argv=None, open_port=open_serial):
     args = arguments(argv)
     import ax12_build
@@ -196,33 +229,59 @@ def main(argv=None, open_port=open_serial):
     from ax12_servo_port import ServoPort
 
     port = None
+    # The servo's state as far as this command moved it: asked into its bootloader by it, and
+    # whether BEGIN went out (from then on its application is not valid until END).
+    moved = {"asked": False, "begun": False}
+    client = None
+
+    def leave_refused(code):
+        """A refusal after this command asked the servo in and before BEGIN: GO first."""
+        if moved["asked"] and not moved["begun"] and client is not None:
+            if not restart_application(client, boot):
+                return EXIT_SERVO
+        return code
+
     try:
         image = image_module.load(args.firmware)
+        image.check_flashable()
         port = open_port(args.port, args.baud)
         client = boot.BootClient(ServoPort(port, args.ident, ANSWER_TIMEOUT_S), args.retries)
-        info = enter_bootloader(client, args.baud, boot)
+        info = enter_bootloader(client, args.baud, boot, asked=lambda: moved.update(asked=True))
         mcu = image_module.mcu_of_signature(info.signature)
         if mcu is None:
             raise boot.BootError(f"servo {args.ident}'s bootloader reports the signature "
                                  f"{info.signature.hex(' ').upper()}, no part this tool knows")
         say(f"servo {args.ident}: bootloader {info.version} on an {mcu}, page {info.page_bytes} B, "
-            f"application area 0x0000-0x{info.app_area_bytes - 1:04X}, application "
+            f"{image_module.area_text(info.app_area_bytes, info.page_bytes)}, application "
             f"{'valid' if info.state & boot.STATE_APP_VALID else 'not valid'}")
         image.check_target(mcu, info.app_area_bytes, info.page_bytes)
-        write_image(client, image, info, not args.no_verify, image_module)
+        write_image(client, image, info, not args.no_verify, image_module, begun=lambda: moved.update(begun=True))
         model, version = start_application(client, boot, args.retries)
     except (image_module.ImageError, BadInput) as error:
         say(str(error))
-        return EXIT_BAD_INPUT
+        return leave_refused(EXIT_BAD_INPUT)
     except (boot.BootError, TransferError) as error:
         say(str(error))
-        return EXIT_SERVO
+        return leave_refused(EXIT_SERVO)
     except KeyboardInterrupt:
-        say("interrupted: a servo stopped between BEGIN and END stays in its bootloader; run the command again")
+        if moved["begun"]:
+            say("interrupted: a servo stopped between BEGIN and END stays in its bootloader; run the command again")
+            return EXIT_SERVO
+        say("interrupted")
+        return leave_refused(EXIT_SERVO)
+    except port_errors() as error:
+        if sys.stderr.isatty():
+            sys.stderr.write("\n")  # past a progress bar
+        say(f"lost the port {args.port} ({error}); " + (
+            f"servo {args.ident} stays in its bootloader (its application is not valid): run the command "
+            f"again once the bus is back" if moved["begun"] else "nothing was written"))
         return EXIT_SERVO
     finally:
         if port is not None:
-            port.close()
+            try:
+                port.close()
+            except port_errors():
+                pass
     pages = len(image.pages(info.page_bytes))
     started = (f"Model Number {model}, Firmware Version {version}" if model is not None
                else "it answers PING, not READ (Status Return Level 0)")

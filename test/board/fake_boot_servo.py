@@ -63,11 +63,11 @@ class FakeBootServo:
     def write(self, data):
         self.received += data
         self._in += data
-        while len(self._in) >= 6 and self._in[3] + 4 <= len(self._in):
-            size = self._in[3] + 4
-            packet = ax12_packets.parse(bytes(self._in[:size]))
-            del self._in[:size]
-            if packet is not None and packet.checksum_ok and packet.ident == self.ident:
+        while True:
+            packet = ax12_packets.take(self._in)
+            if packet is None:
+                break
+            if packet.checksum_ok and packet.ident == self.ident:
                 self.requests.append((packet.code, bytes(packet.params)))
                 self._fault = self._fault_for(packet.code)
                 if self._fault != "lost":

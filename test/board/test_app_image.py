@@ -115,7 +115,8 @@ def test_image_up_to_the_record_page_accepted_one_byte_more_refused(tmp_path):
     fits = jmp_vectors() + b"\x00" * (0x7780 - 104)
     image_module.load(write_hex(tmp_path / "fits.hex", fits)).check_target("atmega328p", AREA_328P, PAGE_328P)
     too_large = image_module.load(write_hex(tmp_path / "big.hex", fits + b"\x00"))
-    with pytest.raises(ImageError, match=r"30593 B: larger than the atmega328p's application area, 30592 B"):
+    with pytest.raises(ImageError, match=r"30593 B, more than the atmega328p's application area 0x0000-0x77FF: "
+                                         r"the image 0x0000-0x777F \(30592 B at most\)"):
         too_large.check_target("atmega328p", AREA_328P, PAGE_328P)
 
 

@@ -2,8 +2,10 @@
 """`scripts/ax12 flash` (scripts/ax12_flash.py) against a servo without a simulator
 (test/board/fake_boot_servo.py): the steps and what is written, the way into the bootloader
 from a running application, retries and giving up, other IDs' answers ignored, verify, and
-what it refuses (exit 2: bad files before anything is sent, a file for the other part or too
-large for the servo, bad arguments; exit 1: a servo that does not answer or cannot take it).
+what it refuses (exit 2: bad files, files for a part without a bootloader or too large for
+their part's application area, all before the port is opened; a file the servo's bootloader
+does not take, after which a servo this command asked in runs its application again; bad
+arguments; exit 1: a servo that does not answer or cannot take it, a port lost mid-update).
 The same command against the emulated servos: test_flash_emulated.py."""
 
 import os
@@ -21,11 +23,13 @@ ax12_build.ensure(os.path.join(REPO, "build"))
 
 import ax12_app_image  # noqa: E402
 import ax12_flash  # noqa: E402
+import fake_boot_servo  # noqa: E402
 from fake_boot_servo import BEGIN, BOOT, END, GO, INFO, PAGE, PING, READ, FakeBootServo  # noqa: E402
 
 FIRMWARE_DIR = os.environ.get("AX12_FIRMWARE_DIR") or os.path.join(REPO, "build", "firmware")
 HEX_328P = os.path.join(FIRMWARE_DIR, "ax12-ax12a-atmega328p.hex")
 HEX_88 = os.path.join(FIRMWARE_DIR, "ax12-ax12-atmega88.hex")
+HEX_328P_MERGED = os.path.join(FIRMWARE_DIR, "ax12-ax12a-atmega328p-merged.hex")
 
 
 @pytest.fixture(autouse=True)
@@ -197,24 +201,128 @@ def test_an_application_at_status_return_level_0_is_asked_in_and_started(capsys)
     assert "it answers PING, not READ (Status Return Level 0)" in out
 
 
-def test_an_image_for_the_other_part_is_refused_before_begin(capsys):
-    servo = FakeBootServo()
-    code, _ = flash(servo, hex_path=HEX_88)
+def test_an_image_for_a_part_without_a_bootloader_is_refused_before_the_port_is_opened(capsys):
+    servo = FakeBootServo(mode="app")
+    code, opened = flash(servo, hex_path=HEX_88)
     assert code == 2
-    assert "built for the atmega88, the servo is an atmega328p" in capsys.readouterr().err
-    assert instructions(servo) == [INFO]
+    assert "built for the atmega88, which has no bootloader" in capsys.readouterr().err
+    assert opened == [] and servo.received == b"", "no servo is asked into its bootloader"
 
 
-def test_an_image_larger_than_the_servo_takes_is_refused_before_begin(capsys, tmp_path):
+def test_an_image_larger_than_its_parts_application_area_is_refused_before_the_port_is_opened(capsys, tmp_path):
     image = IntelHex(HEX_328P)
     image[0x7780] = 0x00  # the record page
     big = tmp_path / "big.hex"
     image.write_hex_file(str(big))
-    servo = FakeBootServo()
-    code, _ = flash(servo, hex_path=str(big))
+    servo = FakeBootServo(mode="app")
+    code, opened = flash(servo, hex_path=str(big))
     assert code == 2
-    assert "larger than the atmega328p's application area" in capsys.readouterr().err
-    assert instructions(servo) == [INFO]
+    err = capsys.readouterr().err
+    assert "is 30593 B, more than the atmega328p's application area 0x0000-0x77FF: the image 0x0000-0x777F" in err
+    assert opened == [] and servo.received == b""
+
+
+def test_a_merged_hex_is_refused_before_the_port_is_opened_naming_the_file_flash_takes(capsys):
+    servo = FakeBootServo(mode="app")
+    code, opened = flash(servo, hex_path=HEX_328P_MERGED)
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "reaches into the boot section" in err and "flash-isp" in err and "ax12-<profile>-<mcu>.hex" in err
+    assert opened == [] and servo.received == b""
+
+
+def running_application(app_area):
+    """A servo running a valid application in an application area of app_area bytes."""
+    servo = FakeBootServo(mode="app", app_area=app_area)
+    app = bytes(range(256)) * 4
+    servo.flash[:len(app)] = app
+    record_at = app_area - servo.page_bytes
+    servo.flash[record_at:record_at + 8] = b"AXAP" + len(app).to_bytes(2, "little") + \
+        ax12_app_image.crc16(app).to_bytes(2, "little")
+    assert servo._record_valid()
+    return servo
+
+
+def too_small_area():
+    """An application area (whole pages) the image of HEX_328P does not fit."""
+    return len(ax12_app_image.load(HEX_328P).data) // 128 * 128
+
+
+def test_a_servo_refused_after_it_entered_its_bootloader_runs_its_application_again(capsys):
+    servo = running_application(too_small_area())
+    code, _ = flash(servo)
+    err = capsys.readouterr().err
+    assert code == 2, err
+    sent = instructions(servo)
+    assert sent[:3] == [INFO, BOOT, INFO] and BEGIN not in sent
+    assert sent[3] == GO, "GO right after the refusal"
+    assert servo.mode == "app", "the servo left its bootloader"
+    assert "nothing written; its application runs again" in err
+
+
+def test_the_application_area_has_one_wording_in_the_steps_and_the_refusal(capsys):
+    size = too_small_area()
+    servo = running_application(size)
+    flash(servo)
+    err = capsys.readouterr().err
+    area = "application area 0x0000-0x%04X: the image 0x0000-0x%04X (%d B at most), its record 0x%04X-0x%04X" % (
+        size - 1, size - 129, size - 128, size - 128, size - 1)
+    assert err.count(area) == 2, err
+
+
+def test_an_unknown_part_after_entry_is_refused_and_the_application_started_again(capsys, monkeypatch):
+    servo = running_application(0x7800)
+    servo.mcu = "unknown"
+    monkeypatch.setitem(fake_boot_servo.SIGNATURES, "unknown", b"\x1e\x00\x00")
+    code, _ = flash(servo)
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "signature 1E 00 00, no part this tool knows" in err
+    assert instructions(servo)[3] == GO and servo.mode == "app"
+
+
+def test_ctrl_c_after_entry_and_before_begin_starts_the_application_again(capsys, monkeypatch):
+    def interrupted(*_):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(ax12_app_image, "mcu_of_signature", interrupted)
+    servo = running_application(0x7800)
+    code, _ = flash(servo)
+    assert code == 1
+    assert servo.mode == "app" and BEGIN not in instructions(servo)
+    assert "its application runs again" in capsys.readouterr().err
+
+
+class PortGoneAfterPages(FakeBootServo):
+    """The port goes away (the emulator killed, the adapter unplugged) after `pages` PAGEs:
+    pyserial raises SerialException from then on."""
+
+    def __init__(self, pages, **kwargs):
+        super().__init__(**kwargs)
+        self.pages_left = pages
+
+    def write(self, data):
+        import serial
+        if self.pages_left < 0:
+            raise serial.SerialException("write failed: [Errno 5] Input/output error")
+        if len(data) > 5 and data[4] == PAGE:
+            self.pages_left -= 1
+        return super().write(data)
+
+    def read(self, count):
+        import serial
+        if self.pages_left < 0:
+            raise serial.SerialException("device reports readiness to read but returned no data")
+        return super().read(count)
+
+
+def test_a_port_lost_mid_update_is_one_line_and_exit_1(capsys):
+    servo = PortGoneAfterPages(3)
+    code, _ = flash(servo)
+    err = capsys.readouterr().err
+    assert code == 1
+    lines = err.strip().splitlines()
+    assert lines[-1].startswith("ax12 flash: lost the port /dev/fake (") and "Traceback" not in err
+    assert "stays in its bootloader" in lines[-1]
 
 
 def bad_files(tmp_path):

@@ -13,6 +13,10 @@
   written, so the reset starts the new application, and a new update completes too.
 - A HEX with a flipped data byte (its record checksum then wrong) or cut short: refused, and
   nothing reaches the bus.
+- A HEX for the ATmega88 or a merged one (application and bootloader): refused (exit 2) before
+  the servo is asked into its bootloader, which then still answers DynamixelSDK's ping (a PING
+  and a READ) as its application.
+- The emulator killed in the middle of an update: one line, exit 1, no traceback.
 
 The updates are skipped while the bootloader's ELF (build/firmware/ax12-boot-atmega328p.elf)
 is not built, or when the emulator has no --bootloader (the bootloader in its servos' flash).
@@ -37,7 +41,9 @@ os.environ.setdefault("AX12_EMU", os.path.join(BUILD, "model", "tools", "ax12-em
 os.environ.setdefault("AX12_FIRMWARE_DIR", FIRMWARE_DIR)
 sys.path.insert(0, os.path.join(REPO, "python"))
 sys.path.insert(0, os.path.join(REPO, "scripts"))
+sys.path.insert(0, os.path.join(REPO, "test", "support"))
 import ax12_build  # noqa: E402
+import doc_samples  # noqa: E402
 
 ax12_build.ensure(BUILD)
 
@@ -65,6 +71,9 @@ from ax12_servo_port import BadChecksum, NoAnswer, ServoPort  # noqa: E402
 BOOT_ELF = os.path.join(FIRMWARE_DIR, "ax12-boot-atmega328p.elf")
 FRONT_DOOR = os.path.join(REPO, "scripts", "ax12")
 HEX = {profile: os.path.join(FIRMWARE_DIR, f"ax12-{profile}-atmega328p.hex") for profile in ("ax12", "ax12a")}
+# Files `flash` refuses: an ATmega88 build (no bootloader), a merged HEX (the bootloader in it).
+REFUSED_HEX = {"atmega88": os.path.join(FIRMWARE_DIR, "ax12-ax12-atmega88.hex"),
+               "merged": os.path.join(FIRMWARE_DIR, "ax12-ax12a-atmega328p-merged.hex")}
 ITEM = {item.name: item for item in T.ITEMS}
 # Firmware Version per profile, as the generated table gives each profile's default.
 FIRMWARE_VERSION = {profile: getattr(ITEM["FIRMWARE_VERSION"], f"default_{profile}") for profile in ("ax12", "ax12a")}
@@ -117,9 +126,9 @@ def serve(state_dir):
         emu.kill()
 
 
-def flash(device, profile, ident=2):
+def flash(device, profile, ident=2, path=None):
     return subprocess.run([FRONT_DOOR, "flash", "--build", BUILD, "--port", device, "--id", str(ident),
-                           HEX[profile]], capture_output=True, text=True, timeout=300)
+                           path or HEX[profile]], capture_output=True, text=True, timeout=300)
 
 
 def exchange(device, ident, instruction, params=(), timeout_s=0.5):
@@ -164,6 +173,8 @@ def test_update_over_the_bus_changes_one_servo_only(serve, state_dir):
         model, version = ITEM["MODEL_NUMBER"].default_ax12, FIRMWARE_VERSION[profile]
         assert f"verified; the application runs: Model Number {model}, Firmware Version {version}" in run.stdout, \
             run.stdout
+        if profile == "ax12a":
+            doc_samples.check("flash-result", run.stdout)
         assert_runs(emu.device, 2, profile)
         assert read(emu.device, 2, KEPT_SETTING[0], 1) == [KEPT_SETTING[1]], "the EEPROM is not the bootloader's"
         for other in (1, 3):
@@ -256,3 +267,48 @@ def test_a_bad_file_sends_nothing(serve, state_dir, which):
     emu.stop()
     sent = [(row["sender"], row["code_name"]) for row in bus_rows(log) if row["sender"] == "client"]
     assert set(sent) <= {("client", "PING")}, f"only the fixture's PINGs reached the bus: {sent}"
+
+
+@needs_bootloader
+@pytest.mark.parametrize("which", sorted(REFUSED_HEX))
+def test_a_refused_file_leaves_the_servo_answering_as_its_application(serve, state_dir, which):
+    from dynamixel_sdk import COMM_SUCCESS, PacketHandler, PortHandler
+    log = state_dir / "bus.csv"
+    emu = serve("--log-bus", str(log))
+    run = flash(emu.device, None, path=REFUSED_HEX[which])
+    assert run.returncode == 2, run.stdout + run.stderr
+    assert "Traceback" not in run.stderr and len(run.stderr.strip().splitlines()) == 1, run.stderr
+    port, handler = PortHandler(emu.device), PacketHandler(1.0)
+    assert port.openPort() and port.setBaudRate(1000000)
+    try:
+        for _ in range(3):  # a busy machine may time one out
+            model, result, error = handler.ping(port, 2)
+            if result == COMM_SUCCESS:
+                break
+    finally:
+        port.closePort()
+    assert (result, error, model) == (COMM_SUCCESS, 0, ITEM["MODEL_NUMBER"].default_ax12), "the SDK's ping of ID 2"
+    assert_runs(emu.device, 2, "ax12")
+    emu.stop()
+    asked_in = [row for row in bus_rows(log) if row["sender"] == "client" and row["kind"] == "instruction"
+                and int(row["raw"].split()[4], 16) == boot.BOOT]
+    assert asked_in == [], "the servo was never asked into its bootloader"
+
+
+@needs_bootloader
+def test_the_emulator_killed_mid_update_ends_the_command_in_one_line_and_exit_1(serve):
+    emu = serve()
+    proc = subprocess.Popen([FRONT_DOOR, "flash", "--build", BUILD, "--port", emu.device, "--id", "2", HEX["ax12a"]],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    seen = []
+    for line in proc.stderr:  # not a terminal: one line when the writing starts
+        seen.append(line)
+        if "writing:" in line:
+            break
+    emu.kill(signal.SIGKILL)
+    out, rest = proc.communicate(timeout=60)
+    err = "".join(seen) + rest
+    assert proc.returncode == 1, out + err
+    assert "Traceback" not in err, err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith(f"ax12 flash: lost the port {emu.device} (") and "run the command again" in last, err
