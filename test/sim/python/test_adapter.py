@@ -106,9 +106,9 @@ def test_u2d2_16_hands_replies_over_when_its_latency_timer_expires(emulator, tmp
     delays, split = delays_ms(fd, 150, seed=18)
     os.close(fd)
     # As the client sees it (wall clock, with the host's own delays on top): up to 16 ms after
-    # the reply left the wire, uniformly: the model's distribution.
+    # the reply left the wire, uniformly: the model's distribution. Its tail is the host's (a
+    # busy machine wakes the client late), so the emulator's own part of it is checked below.
     assert delays[0] >= 0.15, delays[:5]
-    assert delays[int(0.98 * len(delays))] <= 16.0 + WIRE_AND_FRAME_MS + 3.0, delays[-5:]
     assert 6.0 <= statistics.median(delays) <= 12.0, statistics.median(delays)
     d = ks_uniform(delays, WIRE_AND_FRAME_MS, 16.0 + WIRE_AND_FRAME_MS)
     assert d < 0.2, (d, delays[::15])
@@ -121,6 +121,10 @@ def test_u2d2_16_hands_replies_over_when_its_latency_timer_expires(emulator, tmp
                   r"latency waits mean ([\d.]+) ms, max ([\d.]+) ms", err)
     assert m, err
     assert int(m.group(1)) >= 151 and 6.5 <= float(m.group(3)) <= 9.5 and float(m.group(4)) <= 16.0, err
+    # The emulator's own lateness in handing each packet to the pty (wall clock against the
+    # simulated time it stands for): 98 % of the replies on time within 3 ms.
+    late = re.search(r"hand-overs to the client late p50 ([\d.]+) / p99 ([\d.]+) / max ([\d.]+) ms over (\d+)", err)
+    assert late and int(late.group(4)) >= 150 and float(late.group(2)) <= 3.0, err
 
 
 def test_u2d2_1_hands_replies_over_within_about_a_millisecond(emulator, tmp_path):
