@@ -72,6 +72,13 @@ typedef struct {
 /* The next byte starts a search: a frame that is all zeros is reset too. */
 static inline void dxl_frame_reset(dxl_frame_t *frame) { frame->state = DXL_FRAME_SEARCH; }
 
+/* True from a header's ID to its packet's checksum (states ID, LENGTH, BODY): a packet may end
+ * within LENGTH + 2 bytes. Before the ID (SEARCH, SECOND_FF) and inside a Protocol 2.0 frame
+ * the end of a 1.0 packet is at least four bytes away. */
+static inline bool dxl_frame_in_packet(uint8_t state) {
+  return (uint8_t)(state - DXL_FRAME_ID) <= (uint8_t)(DXL_FRAME_BODY - DXL_FRAME_ID);
+}
+
 /* Takes one byte; returns DXL_BYTE_*. */
 uint8_t dxl_frame_step(dxl_frame_t *frame, uint8_t byte);
 

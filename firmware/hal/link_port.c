@@ -29,7 +29,7 @@ uint8_t dxl_link_port_state(void *port) {
   if (uart_rx_armed != UART_RX_ARMED_NONE) {
     state |= DXL_LINK_RX_ARMED;
   }
-  if (uart_rx_progress[UART_RX_OFS_FRAME + DXL_FRAME_OFS_STATE] != DXL_FRAME_SEARCH) {
+  if (dxl_frame_in_packet(uart_rx_progress[UART_RX_OFS_FRAME + DXL_FRAME_OFS_STATE])) {
     state |= DXL_LINK_RX_BUSY;
   }
   return state;

@@ -243,8 +243,8 @@ bool uart_listen(const uint8_t *ping_reply, uint16_t delay_us, uint8_t id, uint8
     return false;
   }
   /* With the reply IDLE nothing reads what this loads: the RX ISR arms only while listening,
-   * and a listening link reloads only while the receiver is at most at a header's first byte,
-   * several byte times before it could arm (dxl_link_port_listen). */
+   * and a listening link reloads only while the receiver is not between a header's ID and its
+   * checksum (DXL_LINK_RX_BUSY), several byte times before it could arm. */
   reply_load(ping_reply, DXL_PING_REPLY_BYTES, delay_us);
   bool listening = false;
   ATOMIC_BLOCK(ATOMIC_RESTORESTATE) { /* also at power-up, before SEI */

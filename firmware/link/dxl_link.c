@@ -89,8 +89,10 @@ static void listen(dxl_link_t *link, dxl_servo_t *servo) {
 
 /* Rebuilds the ready PING reply and listens, when the reply is IDLE and nothing reads the
  * buffer meanwhile: nothing armed, and the receiver either not listening (it arms nothing then)
- * or at most at a header's first byte: a PING it may still arm reads the reply at its checksum,
- * at least 5 byte times later (800 cycles at 1 Mbps), long after the rebuild is done. */
+ * or not inside a header's ID, LENGTH or body (DXL_LINK_RX_BUSY): a PING it may still arm reads
+ * the reply at its checksum, at least 4 byte times later (640 cycles at 1 Mbps), long after the
+ * rebuild is done. A skip or a Protocol 2.0 frame may last many milliseconds: the conditions of
+ * the ready reply follow the control tick through them. */
 static void refresh_ping_reply(dxl_link_t *link, dxl_servo_t *servo) {
   const uint8_t state = dxl_link_port_state(link->port);
   const uint8_t busy = link->listening ? DXL_LINK_RX_BUSY : 0u;

@@ -43,8 +43,10 @@
 /* The receiver armed the reply of a packet whose last byte the link has not taken from the ring
  * yet (whatever the reply's state has become meanwhile). */
 #define DXL_LINK_RX_ARMED 0x40u
-/* The receiver is past a header's first byte or inside a packet it keeps: while listening, a
- * reply could be armed a few byte times from now, so the listen reply must not change. */
+/* The receiver is between a header's ID and its packet's checksum (dxl_frame_in_packet): while
+ * listening, a reply could be armed a few byte times from now, so the listen reply must not
+ * change. Before a header's ID, in a skip or in a Protocol 2.0 frame it may: a PING's checksum
+ * is then at least four byte times away. */
 #define DXL_LINK_RX_BUSY 0x80u
 
 uint8_t dxl_link_port_state(void *port);

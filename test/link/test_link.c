@@ -567,6 +567,24 @@ static void test_the_ready_ping_reply_is_rebuilt_when_its_error_byte_would_chang
   sent();
 }
 
+/* A condition that appears while the receiver is inside a Protocol 2.0 frame (which may last
+ * many milliseconds) is in the ready reply of the PING after the frame: the receiver is no
+ * nearer arming there than before a header (fuzz_core found the reply of that PING stale). */
+static void test_the_ready_ping_reply_follows_the_conditions_through_a_protocol2_frame(void **state) {
+  (void)state;
+  rig_up();
+  const uint8_t protocol2_header[] = {0xFF, 0xFF, 0xFD, 0x00, 0x02, 0x03, 0x00};
+  arrive(protocol2_header, sizeof protocol2_header);
+  rig.servo.held_conditions = DXL_ERR_OVERHEATING;
+  tick_ms(1);
+  dxl_link_conditions_changed(&rig.link, &rig.servo, dxl_servo_conditions(&rig.servo));
+  const uint8_t protocol2_rest[] = {0x01, 0x12, 0x34};
+  arrive(protocol2_rest, sizeof protocol2_rest);
+  arrive_armed(DXL_INST_PING, NULL, 0, true);
+  assert_reply(DXL_ERR_OVERHEATING, NULL, 0);
+  sent();
+}
+
 /* Another servo's bytes come this far apart: the whole packet takes longer than the 100 ms
  * gap, each gap between its bytes is shorter, so it is one packet (docs/policy.md "Framing and
  * bus"). */
@@ -703,6 +721,7 @@ int main(void) {
       cmocka_unit_test(test_an_action_to_this_servo_is_answered_after_a_registered_write),
       cmocka_unit_test(test_a_broadcast_ping_is_answered_in_profile_ax12_only),
       cmocka_unit_test(test_the_ready_ping_reply_is_rebuilt_when_its_error_byte_would_change),
+      cmocka_unit_test(test_the_ready_ping_reply_follows_the_conditions_through_a_protocol2_frame),
       cmocka_unit_test(test_another_servos_packet_is_passed_over_between_two_of_ours),
       cmocka_unit_test(test_a_header_or_a_skip_that_stops_ends_after_the_gap),
       cmocka_unit_test(test_no_packet_spans_a_gap_while_a_reply_holds_up_the_bytes_before_it),

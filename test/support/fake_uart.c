@@ -157,7 +157,7 @@ uint8_t dxl_link_port_state(void *port) {
   if (uart->rx_armed) {
     state |= DXL_LINK_RX_ARMED;
   }
-  if (uart->frame.state != DXL_FRAME_SEARCH) {
+  if (dxl_frame_in_packet(uart->frame.state)) {
     state |= DXL_LINK_RX_BUSY;
   }
   return state;
