@@ -524,22 +524,64 @@ def robot_figures(bench, emu, fw, elf, seconds, runs, row):
         "robot_hexapod_sdk_read_failures")
 
 
-def host_cost_figure(bench, elf, row):
+def host_cost_figure(bench, elf, row, other=None):
     # The host's cost of the 30-servo client loop, machine-independent: callgrind's instruction
     # count inside bench_client_loops (the loaded window of ax12-bench speed), per simulated
     # servo-second.
-    # The same window on simavr's own interpreter: the cost before the fast core, in this run.
+    # The same window on simavr's own interpreter: the cost before the fast core, in this run;
+    # other: (its name, ax12-bench, ELF) of another build, measured the same way.
     loaded_s = 0.1
-    instructions, speed = host_instructions([bench, "speed", elf, "30", str(loaded_s)], "bench_client_loops")
-    before, before_speed = host_instructions([bench, "speed", elf, "30", str(loaded_s)], "bench_client_loops",
-                                             SIMAVR_CORE_ENV)
-    after = instructions / (30 * speed["loaded_sim_s"])
-    before = before / (30 * before_speed["loaded_sim_s"])
+
+    def per_servo_s(bench_path, elf_path, env=None):
+        instructions, speed = host_instructions([bench_path, "speed", elf_path, "30", str(loaded_s)],
+                                                "bench_client_loops", env)
+        return instructions / (30 * speed["loaded_sim_s"])
+
+    after = per_servo_s(bench, elf)
+    before = per_servo_s(bench, elf, SIMAVR_CORE_ENV)
     row("host cost (callgrind)", "30-servo client loop, per simulated servo-second", after,
         "instructions", "<= 125 M", "host_instructions_per_servo_s_30")
     row("host cost (callgrind)", "  the same on simavr's interpreter (before)", before,
         "instructions", "", "host_instructions_per_servo_s_30_simavr_core")
     row("host cost (callgrind)", "  before / after", before / after, "", "", "host_cost_ratio_simavr_core")
+    if other:
+        name, other_bench, other_elf = other
+        theirs = per_servo_s(other_bench, other_elf)
+        row("host cost (callgrind)", "  the same on %s" % name, theirs, "instructions", "",
+            "host_instructions_per_servo_s_30_other")
+        row("host cost (callgrind)", "  %s / this build" % name, theirs / after, "", "", "host_cost_ratio_other")
+
+
+def speed_figures(bench, elf, runs, row, other=None):
+    """Unthrottled speed of 1, 18 and 30 servos, idle and under the zero-latency client loop
+    (ax12-bench speed, median of runs), each beside the same on simavr's own interpreter
+    (AX12_SIM_CORE=simavr) and, with other = (its name, ax12-bench, ELF), on another build. The
+    variants run by turns so that all meet the same load: their ratios are the figures a loaded
+    machine keeps."""
+    goals = {(1, "idle"): ">= 1", (1, "loaded"): ">= 1", (18, "idle"): ">= 1", (18, "loaded"): ">= 4",
+             (30, "idle"): ">= 20", (30, "loaded"): ">= 2.5"}
+    for n in (1, 18, 30):
+        speeds, before, theirs = [], [], []
+        for _ in range(runs):
+            speeds.append(run_json([bench, "speed", elf, str(n), "1"]))
+            before.append(run_json([bench, "speed", elf, str(n), "1"], SIMAVR_CORE_ENV))
+            if other:
+                theirs.append(run_json([other[1], "speed", other[2], str(n), "1"]))
+        for kind, label in (("idle", "idle"), ("loaded", "client loop")):
+            key = "%s_sim_s_per_wall_s" % kind
+            fast = statistics.median(x[key] for x in speeds)
+            slow = statistics.median(x[key] for x in before)
+            row("simulation speed", "%d servos, unthrottled, %s" % (n, label), fast, "x real time", goals[(n, kind)],
+                "speed_%d_%s_fast" % (n, kind))
+            row("simulation speed", "  the same on simavr's interpreter (before)", slow, "x real time", "",
+                "speed_%d_%s_fast_simavr_core" % (n, kind))
+            row("simulation speed", "  after / before", fast / slow, "", "", "speed_%d_%s_ratio_simavr_core" % (n, kind))
+            if other:
+                other_speed = statistics.median(x[key] for x in theirs)
+                row("simulation speed", "  the same on %s" % other[0], other_speed, "x real time", "",
+                    "speed_%d_%s_other" % (n, kind))
+                row("simulation speed", "  this build / %s" % other[0], fast / other_speed, "", "",
+                    "speed_%d_%s_ratio_other" % (n, kind))
 
 
 def firmware_figures(bench, elf, quick, row, r):
@@ -565,6 +607,12 @@ def main():
                     help="only the hexapod's figures: speed, the physics' share (callgrind), the SDK loop")
     ap.add_argument("--firmware-only", action="store_true",
                     help="only the ATmega88 application's size, reply timing, sustained load and host cost")
+    ap.add_argument("--speed-only", action="store_true",
+                    help="only the simulation speed (1, 18 and 30 servos unthrottled, idle and under the client loop) "
+                    "and the host cost of the 30-servo client loop (callgrind)")
+    ap.add_argument("--before-build", metavar="BUILD",
+                    help="with --speed-only: the same figures of another build's ax12-bench and ATmega88 ELF, run by "
+                    "turns with this build's in the same run (bench.json: keys ending _other)")
     ap.add_argument("--load", action="store_true",
                     help="only real time on a busy machine: DynamixelSDK's ping and client suite quiet and under "
                     "busy processes of its own (scripts/bench_load.py)")
@@ -601,6 +649,25 @@ def main():
                 section = sec
             print("  %-52s %16s %-8s %s" % (name, value if isinstance(value, str) else "%.3f" % value, unit, goal))
         print("\n".join(notes))
+        with open(a.out, "w") as f:
+            json.dump(r, f, indent=1, sort_keys=True)
+        print("\nbench: wrote %s" % a.out)
+        return
+
+    if a.speed_only:
+        other = None
+        if a.before_build:
+            other = (a.before_build, os.path.join(a.before_build, "model", "tools", "ax12-bench"),
+                     os.path.join(a.before_build, "firmware", "ax12-ax12-atmega88.elf"))
+        load_before = os.getloadavg()
+        speed_figures(bench, elf, runs, row, other)
+        host_cost_figure(bench, elf, row, other)
+        load_after = os.getloadavg()
+        print("speed of %s on %d CPUs; load average (1, 5, 15 min) %.2f %.2f %.2f at the start, %.2f %.2f %.2f "
+              "at the end" % (a.build, os.cpu_count() or 1, *load_before, *load_after))
+        for _, name, value, unit, goal in rows:
+            print("  %-60s %14s %-12s %s" % (name, "%.3f" % value if isinstance(value, float) else value, unit, goal))
+        r["load_average_1min_start"], r["load_average_1min_end"] = load_before[0], load_after[0]
         with open(a.out, "w") as f:
             json.dump(r, f, indent=1, sort_keys=True)
         print("\nbench: wrote %s" % a.out)
@@ -694,25 +761,7 @@ def main():
     except subprocess.CalledProcessError as e:
         print("bench: awake share not measured: %s" % e, file=sys.stderr)
 
-    # Each speed beside the same on simavr's own interpreter (AX12_SIM_CORE=simavr), run by
-    # turns so that both meet the same load; their ratio is the figure a loaded machine keeps.
-    goals = {(1, "idle"): ">= 1", (1, "loaded"): ">= 1", (18, "idle"): ">= 1", (18, "loaded"): ">= 4",
-             (30, "idle"): ">= 20", (30, "loaded"): ">= 2.5"}
-    for n in (1, 18, 30):
-        speeds, before = [], []
-        for _ in range(runs):
-            speeds.append(run_json([bench, "speed", elf, str(n), "1"]))
-            before.append(run_json([bench, "speed", elf, str(n), "1"], SIMAVR_CORE_ENV))
-        for kind, label in (("idle", "idle"), ("loaded", "client loop")):
-            key = "%s_sim_s_per_wall_s" % kind
-            fast = statistics.median(x[key] for x in speeds)
-            slow = statistics.median(x[key] for x in before)
-            row("simulation speed", "%d servos, unthrottled, %s" % (n, label), fast, "x real time", goals[(n, kind)],
-                "speed_%d_%s_fast" % (n, kind))
-            row("simulation speed", "  the same on simavr's interpreter (before)", slow, "x real time", "",
-                "speed_%d_%s_fast_simavr_core" % (n, kind))
-            row("simulation speed", "  after / before", fast / slow, "", "", "speed_%d_%s_ratio_simavr_core" % (n, kind))
-
+    speed_figures(bench, elf, runs, row)
     host_cost_figure(bench, elf, row)
 
     ping = sdk_ping_median_ms(emu, fw, 50 if a.quick else 200)

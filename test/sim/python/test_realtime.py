@@ -23,6 +23,10 @@ from ax12_packets import instruction_packet as packet, status_packet
 from ax12_servo_port import transact
 from conftest import EMU, FIRMWARE_DIR
 
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+sys.path.insert(0, os.path.join(REPO, "test", "support"))
+import doc_samples  # noqa: E402
+
 PING = packet(1, T.INST_PING)
 PING_REPLY = status_packet(1, 0)
 SCHED_OTHER, SCHED_FIFO = 0, 1
@@ -145,6 +149,15 @@ def test_without_the_right_it_says_once_what_it_could_not_get_and_what_that_mean
     assert "SCHED_FIFO 10 needs CAP_SYS_NICE or an RLIMIT_RTPRIO of at least 10" in notes[0]
     assert "may then wait for a CPU" in notes[0] and "setcap cap_sys_nice+ep" in notes[0]
     assert "scheduling: ordinary scheduling: SCHED_FIFO 10 needs" in timing_line(err)
+    # docs/emulator.md's note, but for what this machine's limit and user are
+    doc_samples.check("realtime-note", notes[0],
+                      normalize=lambda s: re.sub(r"\(ulimit -r is \d+; [^)]*\)", "(ulimit -r ...)", s))
+
+
+def timing_line_shape(line):
+    """A --stats timing line with its figures and counts masked, and the scheduling it names
+    (this machine's right to a policy) left out."""
+    return re.sub(r"\d+(\.\d+)?", "N", line.split("; scheduling: ")[0])
 
 
 PROBE = r"""
@@ -268,3 +281,4 @@ def test_stats_and_the_control_socket_report_the_delays_a_client_lived(emulator,
     assert count == 50 and 0.0 < p50 <= p99 <= worst <= max(times), (line, times)
     assert abs(worst - to_bus["max_ms"]) < 1e-3
     assert figures(line, "hand-overs to the client late")[3] == 50, line
+    doc_samples.check("realtime-timing-line", line, normalize=timing_line_shape)
