@@ -337,3 +337,115 @@ def test_lab4_eeprom_lock_regwrite(folder):
         finally:
             again.stop()
     in_attempts(lab, folder)
+
+
+# --- lab 5 ---------------------------------------------------------------------------------------
+
+HOLD_LINE = re.compile(r"^slope (\d+): position (\d+), droop (-?\d+) counts, Present Load (-?\d+)$", re.M)
+ARM_LINE = re.compile(r"^(\w+)\s+goal (\d+)  position (\d+)  error\s+(-?\d+)  Present Load\s+(-?\d+)$", re.M)
+
+
+def law_drive(error, slope):
+    """docs/control.md's compliance law at the factory margin 0, Punch 32, Torque Limit 1023."""
+    k = max(1, (slope - 1).bit_length())
+    return 0 if error == 0 else min(1023, 32 + ((991 * abs(error)) >> k))
+
+
+def hold_alike(sample, output):
+    """A line of lab5_hold.py: the droop within a count of the sample's (a joint's friction stops
+    it a count either way), the position with it, and Present Load the law's drive at the droop
+    the run shows."""
+    a, b = HOLD_LINE.match(sample), HOLD_LINE.match(output)
+    if not a or not b or a.group(1) != b.group(1):
+        return False
+    slope, position, droop, load = (int(g) for g in b.groups())
+    return (abs(droop - int(a.group(3))) <= 1 and position == 512 - droop
+            and load == law_drive(droop, slope))
+
+
+def arm_alike(sample, output):
+    """A line of lab5_arm.py (slope 32): the error within a count of the sample's, the position
+    with it, and Present Load the law's drive at that error, clockwise when the joint is past
+    its goal."""
+    a, b = ARM_LINE.match(sample), ARM_LINE.match(output)
+    if not a or not b or a.group(1, 2) != b.group(1, 2):
+        return False
+    goal, position, error, load = (int(g) for g in b.group(2, 3, 4, 5))
+    return (abs(error - int(a.group(4))) <= 1 and position == goal - error
+            and load == (1 if error > 0 else -1) * law_drive(error, 32))
+
+
+def world_joint_alike(sample, output):
+    """`scripts/ax12 world --servo 1` on the held pendulum: the angle within a count (0.3 deg),
+    duty and motor current within 0.02 (one count of drive), temperatures and the robot's clock
+    any, the load torque within 0.02 N m, the firmware's line as the hold's: position within a
+    count, load within the law's step of it."""
+    if sample.lstrip().startswith("now:"):
+        return numbers_alike(sample, output, [0.3, 0.1, 0.02, 0.02, None, None, 0.02, 0.02])
+    if sample.lstrip().startswith("firmware:"):
+        return numbers_alike(sample, output, [0, 1, 10, 0, 0])
+    if sample.startswith("robot at"):
+        return numbers_alike(sample, output, [None, 0], pattern=r"\d+\.\d+")
+    return sample == output
+
+
+def gravity_alike(sample, output):
+    """lab5_joints.py's lines: the step count and the times since the start any (they follow the
+    student's pace), the fall's duration within 20 ms, angles within 0.3 deg (a count), counts
+    within one."""
+    tolerances = {"joint": [None, None], "last": [0.3, 1, None], "90 %": [0, 0.02, 0.3, 1], "now": [0.3, 1]}
+    key = next((k for k in tolerances if sample.startswith(k)), None)
+    return key is not None and numbers_alike(sample, output, tolerances[key])
+
+
+def test_lab5_robot_arm(folder):
+    text = page("05")
+    predict_runs = commands(text, ".venv/bin/python lab5_predict.py")
+    worlds = commands(text, "scripts/ax12 world")
+
+    def lab(folder):
+        saved = programs(text, folder)
+        predictions = "".join(run(saved["lab5_predict.py"], *args) for args in predict_runs)
+        doc_samples.check("lab5-predict", predictions)
+        predicted = {m.group(1, 2): int(m.group(3)) for m in re.finditer(
+            r"^([\d.]+) N m at slope (\d+): droop (\d+) counts", predictions, re.M)}
+
+        def hold(device, slope):
+            return not_held(run(saved["lab5_hold.py"], device, slope), "no whole answer")
+
+        serve_lines = commands(text, "scripts/ax12 serve")
+        serve = Serve(serve_lines[0], folder)
+        try:
+            plain = hold(serve.device, 32) + hold(serve.device, 128)
+            doc_samples.check("lab5-pendulum", plain, same=hold_alike)
+            world(worlds[0], folder)  # 0.3 kg on tip
+            loaded = hold(serve.device, 32) + hold(serve.device, 128)
+            doc_samples.check("lab5-pendulum-payload", loaded, same=hold_alike)
+            doc_samples.check("lab5-world", world(worlds[1], folder), same=world_joint_alike)
+            # The droops measured against the page's predictions, within a count.
+            for torque, lines in (("0.316", plain), ("0.758", loaded)):
+                measured = {m.group(1): int(m.group(3)) for m in HOLD_LINE.finditer(lines)}
+                assert sorted(measured) == ["128", "32"], lines
+                for slope, droop in measured.items():
+                    assert abs(droop - predicted[(torque, slope)]) <= 1, (torque, lines, predicted)
+            world(worlds[2], folder)  # gravity off
+            time.sleep(2.0)
+            world(worlds[3], folder)  # gravity on
+            time.sleep(2.0)
+        finally:
+            serve.stop()
+        log = own_paths(commands(text, ".venv/bin/python lab5_joints.py")[0], folder)
+        doc_samples.check("lab5-gravity", run(saved["lab5_joints.py"], *log), same=gravity_alike)
+
+        arm = Serve(serve_lines[1], folder)
+        try:
+            doc_samples.check("lab5-arm", not_held(run(saved["lab5_arm.py"], arm.device, 32), "no whole answer"),
+                              same=arm_alike)
+            world(worlds[4], folder)  # 0.1 kg on grip
+            with_payload = not_held(run(saved["lab5_arm.py"], arm.device, 32), "no whole answer")
+            doc_samples.check("lab5-arm-payload", with_payload, same=arm_alike)
+            shoulder = next(m for m in ARM_LINE.finditer(with_payload) if m.group(1) == "shoulder")
+            assert abs(-int(shoulder.group(4)) - predicted[("0.746", "32")]) <= 1, (with_payload, predicted)
+        finally:
+            arm.stop()
+    in_attempts(lab, folder)
