@@ -5,8 +5,8 @@
  * Execution contexts (docs/firmware.md): the ISRs in hal/ move bytes and start replies;
  * everything else runs here, in one loop that never blocks:
  *   0. the watchdog, fed only when the tick and the receive path made progress (feed_watchdog);
- *   1. the link (dxl_link.h): what follows a reply that has left, then received bytes to
- *      packets handled and replies started;
+ *   1. the link (dxl_link.h): what follows a reply that has left, then received packets
+ *      handled and replies started;
  *   2. control tick (1 kHz): the link's timeouts, ADC into the sensors, control_tick() (which
  *      writes the Present items from them), LED, the link's ready PING reply;
  *   3. EEPROM: one byte of a pending settings write when the EEPROM is ready (nvm.h);
@@ -21,7 +21,6 @@
 #include "board.h"
 #include "control.h"
 #include "dxl_link.h"
-#include "dxl_link_port.h"
 #include "dxl_servo.h"
 #include "motor.h"
 #include "nvm.h"
@@ -65,7 +64,9 @@ static void service_rx(void) {
     return; /* the receive path takes no byte any more */
   }
 #endif
-  dxl_link_service_rx(&link, &servo);
+  if (dxl_link_service_rx(&link, &servo)) {
+    board_wake_set();
+  }
 }
 
 /* A finished conversion into the sensors the control tick reads (it writes the Present*
@@ -100,7 +101,7 @@ static void service_tick(void) {
   if (!timebase_poll()) {
     return;
   }
-  dxl_link_tick(&link, &servo, timebase_ms());
+  dxl_link_tick(&link);
   if (!adc_busy()) {
     take_adc(adc_sequence[adc_slot], adc_result());
     adc_slot = (uint8_t)((adc_slot + 1u) % ADC_SEQUENCE_LENGTH);
@@ -120,14 +121,14 @@ static void service_tick(void) {
 
 /* The watchdog (docs/firmware.md "Watchdog"), fed here in the main loop only when, since the
  * last feed, a control tick has run and the receive path has taken bytes from the ring or has
- * none waiting (the ring's tail and head as the link layer reads them, dxl_link_port.h): a hang
+ * none waiting (the receive ring's tail and head, uart.h): a hang
  * of the loop, of the tick or of the receive path starves it, and 250 ms later the MCU resets.
  * (Bytes wait legitimately while the sniff holds a packet or a reply is on the wire: at the
  * slowest baud at most about 130 ms.) */
 static void feed_watchdog(void) {
   const uint16_t ticks = control_tick_count;
-  const uint8_t tail = dxl_link_port_rx_tail(NULL);
-  if (ticks != fed_tick_count && (tail != fed_rx_tail || tail == dxl_link_port_rx_head(NULL))) {
+  const uint8_t tail = uart_rx_tail;
+  if (ticks != fed_tick_count && (tail != fed_rx_tail || tail == uart_rx_head)) {
     fed_tick_count = ticks;
     fed_rx_tail = tail;
     board_watchdog_kick();
@@ -156,7 +157,7 @@ static void power_up(void) {
   }
   adc_start(adc_sequence[0]);
   dxl_link_init(&link, &servo, NULL);
-  uart_init(servo.table[CT_ADDR_BAUD_RATE]);
+  uart_init(servo.table[CT_ADDR_BAUD_RATE]); /* the receiver on last: bytes wait for SEI */
 }
 
 int main(void) {
@@ -170,8 +171,7 @@ int main(void) {
       /* the main loop is stuck */
     }
 #endif
-    dxl_link_service_reply(&link, &servo);
-    service_rx();
+    service_rx(); /* what follows a reply that has left, then received packets */
     service_tick();
     nvm_service(servo.table);
     /* Work an ISR leaves (a received byte, a tick, a reply sent) sets the wake flag; a pass

@@ -19,6 +19,16 @@
 #define DXL_HAS_BOOTLOADER 0
 #endif
 
+/* 1 on the host: the link layer reports each packet it handled to dxl_link_port_handled()
+ * (the tests' observers, the conformance log). The firmware has no observer. */
+#ifndef DXL_LINK_OBSERVER
+#if defined(__AVR__)
+#define DXL_LINK_OBSERVER 0
+#else
+#define DXL_LINK_OBSERVER 1
+#endif
+#endif
+
 /* 1 in the bootloader's build: dxl_crc16_update() through avr-libc (dxl_image.c). */
 #ifndef DXL_CRC16_AVR_LIBC
 #define DXL_CRC16_AVR_LIBC 0
@@ -48,7 +58,7 @@
 
 /* DXL_OPAQUE(pointer): on the AVR, hides where pointer points from the optimiser (an empty
  * asm that may change it), so a function reaches the fields of a static object through it
- * with LDD/STD and a displacement (2 B) rather than LDS/STS at the object's address (4 B),
+ * with LDD/STD and a displacement (one word) rather than LDS/STS at the object's address (two),
  * which is what link-time constant propagation of &object would give. Nothing on the host. */
 #if defined(__AVR__)
 #define DXL_OPAQUE(pointer) __asm__("" : "+r"(pointer))

@@ -118,7 +118,7 @@ static uint16_t clamp_u16(uint16_t value, uint16_t low, uint16_t high) {
 static bool advance_setpoint(dxl_control_t *c, uint16_t goal_counts, uint16_t moving_speed) {
   const int32_t goal_q16 = (int32_t)goal_counts << 16;
   const uint16_t speed = moving_speed & MAGNITUDE_MASK; /* tested for 0 in 16 bits, not the
-                                                          32-bit step: 4 B less flash */
+                                                          32-bit step: smaller code */
   const int32_t step_q16 = (int32_t)speed * DXL_SPEED_UNIT_Q16_PER_TICK;
   const int32_t to_goal = goal_q16 - c->setpoint_q16;
   if (speed == 0 || (to_goal <= step_q16 && to_goal >= -step_q16)) {
@@ -126,7 +126,7 @@ static bool advance_setpoint(dxl_control_t *c, uint16_t goal_counts, uint16_t mo
     return true;
   }
   /* Counted from the goal, not the old setpoint: one 32-bit value less live where it is
-   * inlined into main (main's stack frame 37 -> 32 B, 14 B less flash). */
+   * inlined into main (a smaller stack frame for main, and smaller code). */
   c->setpoint_q16 = goal_q16 - (to_goal > 0 ? to_goal - step_q16 : to_goal + step_q16);
   return false;
 }
@@ -256,7 +256,7 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
   const bool wheel_mode = ct_is_wheel_mode(table);
   /* Torque off and wheel mode: the setpoint follows the position; torque coming on: no jump.
    * Coming on is "on now and off before"; past the first test, "off before" alone says it
-   * (no torque_came_on bool: 8 B less flash on the ATmega88). */
+   * (no torque_came_on bool: smaller on the ATmega88). */
   if (!torque_enabled || !torque_was_enabled || wheel_mode) {
     c->setpoint_q16 = (int32_t)position << 16;
   }
@@ -280,7 +280,7 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
     drive_magnitude = compliance_magnitude(error, cw_margin, ccw_margin, cw_slope, ccw_slope,
                                            ct_get_u16(table, CT_ADDR_PUNCH), torque_limit);
     drive_cw = error <= 0;
-    moving = true; /* an if, not one || (4 B less flash on the ATmega88) */
+    moving = true; /* an if, not one || (smaller on the ATmega88) */
     if (setpoint_at_goal) {
       moving = away_from_goal(table, goal, position);
     }
@@ -292,7 +292,7 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
   const int16_t speed_along_drive = drive_cw ? (int16_t)-speed_units : speed_units;
   /* Stalled while the law demands at least Torque Limit (past margin + slope in joint mode, or
    * any error past the margin when Punch >= Torque Limit; a capped drive in wheel mode). As
-   * nested tests, not one && of three (16 B less flash on the ATmega88). */
+   * nested tests, not one && of three (smaller on the ATmega88). */
   bool stalled_at_limit = false;
   if (torque_limit != 0) {
     if (drive_magnitude >= torque_limit) {
@@ -309,7 +309,7 @@ int16_t dxl_control_tick(dxl_control_t *control, dxl_servo_t *servo, const dxl_s
   c->overload_ms = overload_ms;
 
   /* set_signed_item(Present Load, drive) from the magnitude, which needs no cap (at most 1023:
-   * Torque Limit's cap, or Moving Speed's bits 0..9): 18 B less flash on the ATmega88. */
+   * Torque Limit's cap, or Moving Speed's bits 0..9): smaller on the ATmega88. */
   table[CT_ADDR_PRESENT_LOAD] = (uint8_t)drive_magnitude;
   table[CT_ADDR_PRESENT_LOAD + 1] =
       (uint8_t)((drive_magnitude >> 8) | (drive < 0 ? DIRECTION_CW_BIT >> 8 : 0u));

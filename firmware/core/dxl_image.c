@@ -16,7 +16,7 @@
  * CCITT-FALSE only by its initial value, which the callers give): about 20 cycles a byte, where
  * C's 16-bit shifts take 60-90, and the bootloader checks the whole application with it at
  * every reset (docs/bootloader.md). Elsewhere the same step in C, byte-wide (no loop, no
- * table): the application checks 59 bytes at power-up, and it is 6 B smaller there. */
+ * table): the application checks 59 bytes at power-up, and it is smaller there. */
 uint16_t dxl_crc16_update(uint16_t crc, uint8_t byte) {
 #if DXL_CRC16_AVR_LIBC
   return _crc_xmodem_update(crc, byte);

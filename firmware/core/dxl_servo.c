@@ -54,7 +54,7 @@ bool dxl_servo_answers(const dxl_servo_t *servo, uint8_t id, uint8_t instruction
   if (id == DXL_ID_BROADCAST) {
     return BROADCAST_ANSWERED(instruction);
   }
-  if (id != servo->table[CT_ADDR_ID]) { /* two returns, not one &&: 10 B less flash */
+  if (id != servo->table[CT_ADDR_ID]) { /* two returns, not one &&: smaller code */
     return false;
   }
   return STATUS_LEVEL(servo) >= min_status_level(instruction);
@@ -63,7 +63,7 @@ bool dxl_servo_answers(const dxl_servo_t *servo, uint8_t id, uint8_t instruction
 
 /* Whether the window [start, start + len) shares an address with [first_addr, last_addr], for
  * a window within the table (start + len <= CT_SIZE: every window ct_check_write() accepts),
- * so its end fits a byte. Two returns, not one &&: 26 B less flash on the ATmega88. */
+ * so its end fits a byte. Two returns, not one &&: smaller on the ATmega88. */
 static bool window_overlaps(uint8_t start, uint8_t len, uint8_t first_addr, uint8_t last_addr) {
   if (start > last_addr) {
     return false;
@@ -78,7 +78,7 @@ static bool angle_limit_after_write(const dxl_servo_t *s, uint8_t start, const u
   const uint16_t cw_limit = ct_u16_after_write(s->table, CT_ADDR_CW_ANGLE_LIMIT, start, data, len);
   const uint16_t ccw_limit = ct_u16_after_write(s->table, CT_ADDR_CCW_ANGLE_LIMIT, start, data, len);
   if (cw_limit == 0 && ccw_limit == 0) { /* wheel mode */
-    /* Tests as returns, not one || of &&s: 16 B less flash on the ATmega88 (ax12). */
+    /* Tests as returns, not one || of &&s: smaller on the ATmega88. */
     if (len != 0 && window_overlaps(start, len, CT_ADDR_GOAL_POSITION, CT_ADDR_GOAL_POSITION + 1)) {
       return true; /* a Goal Position written */
     }
@@ -96,7 +96,7 @@ static bool angle_limit_after_write(const dxl_servo_t *s, uint8_t start, const u
 
 /* angle_limit_after_write() with nothing written, in a few table reads: it runs every control
  * tick. A copy on purpose: calling angle_limit_after_write(s, 0, NULL, 0) instead, or sharing
- * a helper with it, measured 36 and 24 B more flash on the ATmega88 (and the call is slower).
+ * a helper with it, measured larger on the ATmega88 (and the call is slower).
  * In wheel mode the flag alone tells: apply_write() sets it afresh whenever wheel mode begins. */
 static bool angle_limit_now(const dxl_servo_t *s) {
   const uint16_t cw_limit = ct_get_u16(s->table, CT_ADDR_CW_ANGLE_LIMIT);
@@ -161,7 +161,7 @@ static uint8_t after_flags_of_write(uint8_t start, uint8_t len) {
 
 uint8_t dxl_servo_stream_mask(const dxl_servo_t *servo) {
   /* min_status_level() per streamed instruction: PING 0, READ 1, WRITE, REG_WRITE and
-   * ACTION 2 (two tests: 4 B less flash on the ATmega88 than a table by level). */
+   * ACTION 2 (two tests: smaller on the ATmega88 than a table by level). */
   const uint8_t level = STATUS_LEVEL(servo);
   uint8_t mask = 1u << DXL_INST_PING;
   if (level >= 1u) {
@@ -178,8 +178,8 @@ uint8_t dxl_servo_stream_mask(const dxl_servo_t *servo) {
 }
 
 /* The write of data[0..len) at start that action plans (WRITE, REG_WRITE, ACTION, SYNC_WRITE),
- * if ct_check_write() accepts it; returns its error bits. One copy for the three callers: 32 B
- * less flash on the ATmega88. */
+ * if ct_check_write() accepts it; returns its error bits. One copy for the three callers:
+ * smaller on the ATmega88. */
 static DXL_ONE_COPY uint8_t plan_checked_write(const dxl_servo_t *s, dxl_response_t *r, uint8_t action, uint8_t start,
                                   const uint8_t *data, uint8_t len) {
   const uint8_t error = ct_check_write(s->table, start, data, len);
@@ -358,7 +358,7 @@ void dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl
   if (angle_limit_after_write(s, start, data, len)) {
     error |= DXL_ERR_ANGLE_LIMIT;
   }
-  /* Two calls, not one with two conditional arguments: 12 B less flash on the ATmega88. */
+  /* Two calls, not one with two conditional arguments: smaller on the ATmega88. */
   if (packet->instruction == DXL_INST_READ && r->events == 0) { /* (so it fits) */
     encode_status(s, error, &s->table[r->window_start], r->window_len, r);
   } else {
@@ -373,7 +373,7 @@ void dxl_servo_ping_reply(const dxl_servo_t *servo, dxl_response_t *reply) {
 /* The one write path into the table for instructions (WRITE, ACTION, SYNC_WRITE). The
  * window was checked by ct_check_write(). */
 static void apply_write(dxl_servo_t *s, uint8_t start, const uint8_t *data, uint8_t len) {
-  DXL_OPAQUE(s); /* the table and slot by displacement: 12 B less flash on the ATmega88 */
+  DXL_OPAQUE(s); /* the table and slot by displacement: smaller on the ATmega88 */
   const bool was_wheel_mode = ct_is_wheel_mode(s->table);
   for (uint8_t i = 0; i < len; i++) {
     const uint8_t addr = (uint8_t)(start + i);
@@ -400,7 +400,7 @@ static void apply_write(dxl_servo_t *s, uint8_t start, const uint8_t *data, uint
 void dxl_servo_commit(dxl_servo_t *servo, const dxl_response_t *response) {
   dxl_servo_t *s = servo;
   const dxl_response_t *r = response;
-  DXL_OPAQUE(r); /* with prepare's: 36 B less flash on the ATmega88 (measured) */
+  DXL_OPAQUE(r); /* with prepare's: smaller on the ATmega88 (measured) */
   s->pending_events |= r->events;
   switch (r->action) {
   case DXL_ACTION_WRITE:

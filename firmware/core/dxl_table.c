@@ -69,13 +69,13 @@ void ct_load_power_up_ram(uint8_t *table, uint16_t present_position) {
 }
 
 bool ct_is_wheel_mode(const uint8_t *table) {
-  if (ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT) != 0) { /* two returns, not one &&: 8 B less flash */
+  if (ct_get_u16(table, CT_ADDR_CW_ANGLE_LIMIT) != 0) { /* two returns, not one &&: smaller code */
     return false;
   }
   return ct_get_u16(table, CT_ADDR_CCW_ANGLE_LIMIT) == 0;
 }
 
-/* Two returns, not one && or ||: 8 B less flash on the ATmega88. */
+/* Two returns, not one && or ||: smaller on the ATmega88. */
 static bool locked_refuses(uint8_t first_addr, uint8_t last_addr) {
 #if DXL_PROFILE == DXL_PROFILE_AX12A
   if (last_addr < LOCK_AX12A_REFUSED_FIRST) {
@@ -91,7 +91,7 @@ static bool locked_refuses(uint8_t first_addr, uint8_t last_addr) {
 }
 
 /* The value item (addr, size_bytes) would hold after writing data[0..len) at start: a 1-byte
- * item as the low byte of the 16-bit read (one path: 28 B less flash on the ATmega88). The
+ * item as the low byte of the 16-bit read (one path: smaller on the ATmega88). The
  * table ends with a 2-byte item, so addr + 1 of a 1-byte item is in the table. */
 _Static_assert(CT_ADDR_PUNCH + 2u == CT_SIZE, "the last item has 2 bytes");
 static uint16_t item_value_after_write(const uint8_t *table, uint8_t addr, uint8_t size_bytes, uint8_t start,
@@ -118,7 +118,7 @@ uint8_t ct_check_write(const uint8_t *table, uint8_t start, const uint8_t *data,
     if (index == CT_IDX_MOVING_SPEED) {
       if ((ct_u16_after_write(table, CT_ADDR_CW_ANGLE_LIMIT, start, data, len) |
            ct_u16_after_write(table, CT_ADDR_CCW_ANGLE_LIMIT, start, data, len)) == 0) {
-        /* wheel mode after the write (both limits 0, one OR: 6 B less flash than an &&) */
+        /* wheel mode after the write (both limits 0, one OR: smaller than an &&) */
         max = MOVING_SPEED_WHEEL_MAX;
       }
     }

@@ -12,7 +12,7 @@ void adc_init(void) {
   ADCSRA = ADCSRA_ON;
 }
 
-/* One copy for its three callers (12 B less flash on the ATmega88). */
+/* One copy for its three callers (smaller on the ATmega88). */
 __attribute__((noinline)) void adc_start(uint8_t channel) {
   ADMUX = (uint8_t)(ADMUX_AVCC | channel);
   ADCSRA = (uint8_t)(ADCSRA_ON | _BV(ADSC));
@@ -30,7 +30,7 @@ uint16_t adc_read_blocking(uint8_t channel) {
 }
 
 /* (reading x factor + round) >> 8: the >> 8 a byte move (a 32-bit shift is a loop a bit).
- * One copy for both conversions (6 B less flash on the ATmega88). */
+ * One copy for both conversions (smaller on the ATmega88). */
 static __attribute__((noinline)) uint16_t scaled_q8(uint16_t reading, uint8_t factor, uint16_t round) {
   return (uint16_t)(((uint32_t)reading * factor + round) >> 8);
 }
@@ -44,7 +44,7 @@ uint8_t adc_temperature_c(uint16_t reading) {
   if (half_up <= 50u) {
     return 0;
   }
-  if (half_up >= UINT8_MAX + 50u) { /* the cap tested before the subtraction: 6 B less flash */
+  if (half_up >= UINT8_MAX + 50u) { /* the cap tested before the subtraction: smaller code */
     return UINT8_MAX;
   }
   return (uint8_t)(half_up - 50u);

@@ -32,7 +32,7 @@ static uint8_t *eeprom_addr(uint8_t slot, uint8_t offset) {
  * frame lives for ever, it would deepen the stack of every later call). */
 __attribute__((noinline)) const uint8_t *nvm_load(void) {
   /* Byte by byte: eeprom_read_byte() is linked anyway (nvm_service), eeprom_read_block() would
-   * add 32 B of flash. */
+   * add its own code. */
   uint8_t image[DXL_IMAGE_BYTES];
   for (uint8_t offset = 0; offset < DXL_IMAGE_BYTES; offset++) {
     image[offset] = eeprom_read_byte(eeprom_addr(0, offset));
@@ -57,7 +57,7 @@ static void start_store(const uint8_t *eeprom_area) {
 }
 
 /* Two returns, not one && (whose bit test gcc-avr 5.4 turns into a bool it then tests):
- * 22 B less flash on the ATmega88. */
+ * smaller on the ATmega88. */
 bool nvm_work_ready(void) {
   if (steps_left == 0 || !eeprom_is_ready()) {
     return false;

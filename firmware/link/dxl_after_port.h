@@ -15,9 +15,10 @@ void dxl_after_port_persist(void *port, const uint8_t *table);
 void dxl_after_port_set_baud(void *port, uint8_t baud_register);
 
 #if DXL_HAS_BOOTLOADER
-/* Enters the bootloader once any store of the settings under way has finished; the bus is
- * idle. On the board it does not return. */
-void dxl_after_port_enter_bootloader(void *port);
+/* Enters the bootloader once any store of the settings (table's EEPROM area, as for
+ * dxl_after_port_persist) under way has finished; the bus is idle. On the board it does not
+ * return. */
+void dxl_after_port_enter_bootloader(void *port, const uint8_t *table);
 #endif
 
 #endif

@@ -8,31 +8,34 @@
 #include "dxl_protocol.h"
 #include "dxl_table.h"
 
-static bool link_free(const dxl_link_t *link) {
-  return dxl_link_port_reply_state(link->port) == DXL_LINK_REPLY_IDLE;
-}
+/* link->armed: the packet whose reply the receiver armed, as the link takes it. */
+#define LINK_ARMED_NONE 0u
+#define LINK_ARMED_TAKING 1u   /* its bytes are coming */
+#define LINK_ARMED_PREPARED 2u /* all but its checksum are in; a streamed reply is published */
 
-/* The packet the finder returned (or, on the armed path, completes) as framed: it is still
- * at the front of the finder's bytes, FF FF ID LENGTH and LENGTH bytes more. */
-#define FRAMED_HEADER_BYTES 4u
-#define FRAMED_OFS_LENGTH 3u
+static uint8_t reply_state(const dxl_link_t *link) { return dxl_link_port_state(link->port) & DXL_LINK_REPLY_MASK; }
+
+/* The packet the finder completed, as framed: at the front of the finder's bytes, FF FF ID
+ * LENGTH and LENGTH bytes more. */
 static void report_handled(dxl_link_t *link, dxl_find_result_t found) {
+#if DXL_LINK_OBSERVER
   const uint8_t *bytes = dxl_finder_held(&link->finder);
-  dxl_link_port_handled(link->port, found, bytes, (uint16_t)(FRAMED_HEADER_BYTES + bytes[FRAMED_OFS_LENGTH]),
-                        &link->response);
+  dxl_link_port_handled(link->port, found, bytes, (uint16_t)(DXL_PACKET_HEADER_BYTES + bytes[3]), &link->response);
+#else
+  (void)link;
+  (void)found;
+#endif
 }
 
-/* Starts the prepared (or rejected) packet's reply, its bytes final once prepared; what must
+/* Sends the prepared (or rejected) packet's reply, its bytes final once prepared; what must
  * follow its end (dxl_after.h) is kept for dxl_link_service_reply(). */
-static DXL_ONE_COPY void start_reply(dxl_link_t *link) {
+static DXL_ONE_COPY void send_reply(dxl_link_t *link) {
   link->after_reply = link->response.after;
-  dxl_link_port_reply_load(link->port, link->response.bytes, link->response.length, link->response.delay_us);
-  dxl_link_port_reply_start(link->port);
+  dxl_link_port_reply_send(link->port, link->response.bytes, link->response.length, link->response.delay_us);
 }
 
 /* Whether the armed packet's reply is the streamed one the link prepares and commits (else a
- * PING answered with the ready reply, which needs nothing). Two returns, not one || (whose
- * bool gcc-avr 5.4 builds and then tests): 30 B less flash on the ATmega88. */
+ * PING answered with the ready reply, which needs nothing). */
 static bool reply_is_streamed(const dxl_packet_t *packet) {
   if (packet->instruction != DXL_INST_PING) {
     return true;
@@ -51,7 +54,7 @@ static void on_packet(dxl_link_t *link, dxl_servo_t *servo, const dxl_packet_t *
   dxl_response_t *response = &link->response;
   dxl_servo_prepare(servo, packet, response);
   if (response->length != 0) {
-    start_reply(link);
+    send_reply(link);
   }
   commit(link, servo);
   report_handled(link, DXL_FIND_PACKET);
@@ -63,249 +66,160 @@ static void on_packet(dxl_link_t *link, dxl_servo_t *servo, const dxl_packet_t *
 static void on_bad_checksum(dxl_link_t *link, dxl_servo_t *servo, const dxl_packet_t *packet) {
   dxl_servo_reject_checksum(servo, packet, &link->response);
   if (link->response.length != 0) {
-    start_reply(link);
+    send_reply(link);
   }
   report_handled(link, DXL_FIND_BAD_CHECKSUM);
 }
 
-/* Starts the sniff when nothing is held or under way: the finder holds no byte, the ring is
- * empty (the port checks), the link idle and nothing armed, so the next byte is where the
- * finder would start its candidate (the sniff never answers a packet the finder would not
- * see), and every earlier packet is committed (the sniff decides with the table of the
- * moment). Callers: nothing armed. */
-static void sniff_start(dxl_link_t *link, dxl_servo_t *servo) {
-  if (dxl_link_port_sniff_state(link->port) == DXL_LINK_SNIFF_OFF && link_free(link) &&
-      dxl_finder_idle(&link->finder)) {
-    /* The delay from the table: after a packet that got no reply (another servo's, a broadcast
-     * PING of profile ax12a) the response holds the PING reply's bytes beside a header that
-     * dxl_servo_prepare() cleared, delay 0 included. */
+/* Listens (dxl_link_port_listen) when nothing is held or under way: the finder idle, nothing
+ * armed, and (the port checks) the reply IDLE and the ring empty, so
+ * the next packet the receiver keeps is the next one the finder frames and every earlier one is
+ * committed (the receiver arms with the table of the moment). The ready PING reply is in the
+ * response's bytes; its delay comes from the table: after a packet that got no reply (another
+ * servo's, a broadcast PING of profile ax12a) dxl_servo_prepare() has cleared the response's
+ * header fields, delay included. */
+static void listen(dxl_link_t *link, dxl_servo_t *servo) {
+  if (link->armed == LINK_ARMED_NONE && dxl_finder_idle(&link->finder)) {
     const uint8_t *table = servo->table;
-    dxl_link_port_reply_load(link->port, link->response.bytes, DXL_PING_REPLY_BYTES,
-                             (uint16_t)(DXL_RETURN_DELAY_UNIT_US * table[CT_ADDR_RETURN_DELAY_TIME]));
-    dxl_link_port_sniff_start(link->port, table[CT_ADDR_ID], dxl_servo_stream_mask(servo));
+    link->listening = dxl_link_port_listen(link->port, link->response.bytes,
+                               (uint16_t)(DXL_RETURN_DELAY_UNIT_US * table[CT_ADDR_RETURN_DELAY_TIME]), table[CT_ADDR_ID],
+                               dxl_servo_stream_mask(servo));
   }
 }
 
-/* Rebuilds and reloads the ready PING reply when the link is idle and nothing is armed (so
- * nothing reads it meanwhile), then starts the sniff. A sniff that has matched some bytes is
- * left alone: its PING is under way with this reply. One still at its first byte keeps
- * running (stopping it would miss a PING that starts meanwhile): it reads the reply at the
- * PING's checksum, at least 5 byte times later (800 cycles at 1 Mbps), long after the rebuild
- * and the reload are done. */
+/* Rebuilds the ready PING reply and listens, when the reply is IDLE and nothing reads the
+ * buffer meanwhile: nothing armed, and the receiver either not listening (it arms nothing then)
+ * or not inside a header's ID, LENGTH or body (DXL_LINK_RX_BUSY): a PING it may still arm reads
+ * the reply at its checksum, at least 4 byte times later (640 cycles at 1 Mbps), long after the
+ * rebuild is done. A skip or a Protocol 2.0 frame may last many milliseconds: the conditions of
+ * the ready reply follow the control tick through them. */
 static void refresh_ping_reply(dxl_link_t *link, dxl_servo_t *servo) {
-  const uint8_t sniff = dxl_link_port_sniff_state(link->port);
-  if (!link->armed && link_free(link) && (sniff == DXL_LINK_SNIFF_WAITING || sniff == DXL_LINK_SNIFF_OFF)) {
+  const uint8_t state = dxl_link_port_state(link->port);
+  const uint8_t busy = link->listening ? DXL_LINK_RX_BUSY : 0u;
+  if (link->armed == LINK_ARMED_NONE &&
+      (state & (DXL_LINK_REPLY_MASK | DXL_LINK_RX_ARMED | busy)) == DXL_LINK_REPLY_IDLE) {
     dxl_servo_ping_reply(servo, &link->response);
-    dxl_link_port_reply_load(link->port, link->response.bytes, DXL_PING_REPLY_BYTES, link->response.delay_us);
-    sniff_start(link, servo);
+    listen(link, servo); /* again: the reply is reloaded */
   }
 }
 
-/* The sniff armed a reply at a packet's last byte but one: the link takes it over. */
-static DXL_ONE_COPY void adopt_sniffed(dxl_link_t *link) {
-  if (!link->armed && dxl_link_port_sniff_state(link->port) == DXL_LINK_SNIFF_ARMED) {
-    dxl_link_port_sniff_adopt(link->port);
-    link->armed = true;
-  }
+/* Whether the reply has left (DONE) and is the link's own (not one the receiver armed for a
+ * packet whose last byte the link has still to take: dxl_link_service_rx completes it first). */
+static bool reply_done(const dxl_link_t *link, uint8_t state) {
+  return link->armed == LINK_ARMED_NONE &&
+         (state & (DXL_LINK_REPLY_MASK | DXL_LINK_RX_ARMED)) == DXL_LINK_REPLY_DONE;
 }
 
-/* Bytes of the armed packet still in the ring or on the wire, its checksum included. One copy
- * for its two tests (4 B less flash on the ATmega88). */
-static DXL_ONE_COPY uint8_t armed_bytes_left(const dxl_link_t *link) {
-  return (uint8_t)(dxl_link_port_sniff_end(link->port) - dxl_link_port_rx_tail(link->port));
+/* After the reply's last byte: what follows it, then the ready PING reply. */
+static void reply_left(dxl_link_t *link, dxl_servo_t *servo) {
+  dxl_link_port_reply_finish(link->port);
+  const uint8_t after = link->after_reply;
+  link->after_reply = 0;
+  dxl_after_reply(servo, after, link->port);
+  refresh_ping_reply(link, servo);
 }
 
-/* Moves up to max_bytes waiting in the ring into the finder (as far as it has room), stamped
- * with the current millisecond, in one batch; the finder examines them in one
- * dxl_finder_next() pass. Returns how many moved. */
-static uint8_t push_waiting_bytes(dxl_link_t *link, uint8_t max_bytes) {
-  const uint16_t now_ms = dxl_link_port_now_ms(link->port);
-  uint16_t room;
-  uint8_t *slot = dxl_finder_push_slot(&link->finder, &room, now_ms);
-  uint8_t count = (uint8_t)(dxl_link_port_rx_head(link->port) - dxl_link_port_rx_tail(link->port));
-  if (!link->armed && dxl_link_port_sniff_state(link->port) != DXL_LINK_SNIFF_OFF) {
-    /* Read after the head: the sniff holds the ring (it may drop a packet from it), or armed
-     * at a byte already counted, whose packet goes through the armed path (adopt_sniffed). */
-    return 0;
-  }
-  if (count > max_bytes) {
-    count = max_bytes;
-  }
-  if (count > room) {
-    count = (uint8_t)room;
-  }
-  dxl_link_port_rx_take(link->port, slot, count);
-  dxl_finder_pushed(&link->finder, count, now_ms);
-  return count;
-}
-
-/* The armed packet: everything but the checksum goes to the finder first, and the reply is
- * prepared then, while the checksum is still on the wire. A PING answers with the ready reply;
- * anything else streamed its header and waits for the rest, published here (dxl_servo.h
- * "Streamed replies": the prepared reply of such a packet is non-empty with nothing after
- * it). Returns false when the bytes it needs are still on the wire. */
-static bool service_armed(dxl_link_t *link, dxl_servo_t *servo) {
-  dxl_packet_t packet;
-  const uint8_t left = armed_bytes_left(link);
-  if (left > 1) {
-    if (push_waiting_bytes(link, (uint8_t)(left - 1u)) == 0) {
+bool dxl_link_service_rx(dxl_link_t *link, dxl_servo_t *servo) {
+  for (;;) {
+    uint8_t state = dxl_link_port_state(link->port);
+    if (reply_done(link, state)) {
+      reply_left(link, servo);
+      state = dxl_link_port_state(link->port);
+    }
+    if (state & DXL_LINK_RX_GAP) {
+      /* A gap's point: what the finder holds of the packet under way there is dropped (the
+       * receiver has withdrawn a reply it armed for it). */
+      dxl_finder_gap(&link->finder);
+      if (link->armed != LINK_ARMED_NONE) {
+        link->armed = LINK_ARMED_NONE;
+        refresh_ping_reply(link, servo); /* a streamed reply may have been prepared into its buffer */
+        state = dxl_link_port_state(link->port);
+      }
+    }
+    if (link->armed == LINK_ARMED_NONE) {
+      if (state & DXL_LINK_RX_ARMED) {
+        link->armed = LINK_ARMED_TAKING;
+      } else if ((state & DXL_LINK_REPLY_MASK) != DXL_LINK_REPLY_IDLE) {
+        return false; /* one reply at a time: the rest waits in the ring */
+      } else if (link->listening && (state & DXL_LINK_RX_BYTES) == 0) {
+        return false; /* nothing to take: the usual pass */
+      }
+    }
+    if (link->armed == LINK_ARMED_TAKING && dxl_finder_left(&link->finder) == 1) {
+      /* All but the checksum are in (perhaps taken before the receiver armed at the last of
+       * them): prepare and publish the reply while the checksum is on the wire (dxl_servo.h
+       * "Streamed replies"); a PING answers with the ready reply. */
+      link->armed = LINK_ARMED_PREPARED;
+      dxl_packet_t candidate;
+      dxl_finder_candidate(&link->finder, &candidate);
+      uint8_t length = DXL_PING_REPLY_BYTES;
+      if (reply_is_streamed(&candidate)) {
+        dxl_servo_prepare(servo, &candidate, &link->response);
+        length = link->response.length;
+      }
+      dxl_link_port_reply_publish(link->port, length); /* the checksum may be taken now */
+    }
+    const bool body = dxl_finder_left(&link->finder) != 0;
+    uint16_t want;
+    uint8_t *slot = dxl_finder_slot(&link->finder, &want);
+    const uint8_t taken = dxl_link_port_rx_take(link->port, slot, want > UINT8_MAX ? (uint8_t)UINT8_MAX : (uint8_t)want);
+    if (taken == 0) {
+      if (link->armed == LINK_ARMED_NONE && !link->listening) {
+        listen(link, servo);
+      }
       return false;
     }
-    (void)dxl_finder_next(&link->finder, &packet); /* the same candidate as the sniff: NONE */
-    if (armed_bytes_left(link) == 1) {
-      dxl_finder_candidate(&link->finder, &packet);
-      if (reply_is_streamed(&packet)) {
-        dxl_servo_prepare(servo, &packet, &link->response);
-        dxl_link_port_reply_publish(link->port, link->response.length);
-      }
+    link->listening = false; /* the receiver keeps a packet only once it has stopped listening */
+    dxl_packet_t packet;
+    const dxl_find_result_t found = dxl_finder_pushed(&link->finder, taken, &packet);
+    bool rebuild = false;
+    if (found == DXL_FIND_NONE && body && link->armed == LINK_ARMED_NONE) {
+      /* Part of a packet that comes byte by byte: the main loop's control tick runs between
+       * its bytes, however long it is (back to back at 1 Mbps the ring is never empty). */
+      return true;
     }
-    return true;
-  }
-  if (push_waiting_bytes(link, 1) == 0) {
-    return false; /* the checksum byte is still on the wire */
-  }
-  link->finder_dirty = true;
-  link->armed = false;
-  if (!link_free(link)) {
-    /* The checksum matched and the reply is under way: the finder completes the same packet
-     * (DXL_FIND_PACKET); commit what was prepared. */
-    (void)dxl_finder_next(&link->finder, &packet);
-    if (reply_is_streamed(&packet)) {
-      commit(link, servo); /* a store at most follows it */
-    } /* else a PING: the response is the ready reply the UART sent */
-    report_handled(link, DXL_FIND_PACKET);
-    link->after_reply = 0;
-    link->finder_dirty = false;
-    /* The reply may be DONE already (a control tick ran meanwhile), which
-     * dxl_link_service_reply() left alone while this was armed: another pass takes it at once,
-     * not at the next wake (the sniff would stay off until then). */
-    dxl_link_port_wake(link->port);
-  } else {
-    refresh_ping_reply(link, servo); /* nothing was sent; a prepared reply may have taken the buffer */
-  }
-  return true; /* a mismatch is handled next like any byte */
-}
-
-void dxl_link_service_rx(dxl_link_t *link, dxl_servo_t *servo) {
-  dxl_packet_t packet;
-  for (;;) {
-    adopt_sniffed(link);
-    if (link->armed) {
-      if (!service_armed(link, servo)) {
-        return;
+    if (link->armed != LINK_ARMED_NONE) {
+      if (found == DXL_FIND_NONE) {
+        continue;
       }
+      link->armed = LINK_ARMED_NONE;
+      if (reply_state(link) != DXL_LINK_REPLY_IDLE) {
+        /* The checksum matched and the reply is under way: commit what was prepared. */
+        if (reply_is_streamed(&packet)) {
+          commit(link, servo); /* a store at most follows it */
+        } /* else a PING: the response is the ready reply the UART sent */
+        report_handled(link, DXL_FIND_PACKET);
+        link->after_reply = 0;
+        /* The reply may be DONE already (a control tick ran meanwhile), which
+         * dxl_link_service_reply() left alone while this was armed: another pass takes it at
+         * once, not at the next wake (the receiver would not listen until then). */
+        return true;
+      }
+      rebuild = true; /* nothing was sent; a prepared reply may have taken the buffer */
+    }
+    if (found == DXL_FIND_PACKET) {
+      on_packet(link, servo, &packet);
+    } else if (found == DXL_FIND_BAD_CHECKSUM) {
+      on_bad_checksum(link, servo, &packet);
+    } else {
       continue;
     }
-    if (!link_free(link)) {
-      return; /* one reply at a time: the rest waits in the ring */
+    /* The ready PING reply is rebuilt when the packet changed something (a reply that used the
+     * buffer rebuilds it when it has left); another servo's packet changes nothing. */
+    if (rebuild || link->response.action != DXL_ACTION_NONE) {
+      refresh_ping_reply(link, servo);
     }
-    if (link->finder_dirty) {
-      const dxl_find_result_t found = dxl_finder_next(&link->finder, &packet);
-      if (found == DXL_FIND_NONE) {
-        link->finder_dirty = false;
-        /* Back to the main loop (watchdog, tick) between batches: at once when bytes came
-         * meanwhile (or waited for a reply's end), else with the sniff listening. */
-        if (dxl_link_port_rx_head(link->port) != dxl_link_port_rx_tail(link->port)) {
-          dxl_link_port_wake(link->port);
-        } else {
-          sniff_start(link, servo);
-        }
-        return;
-      }
-      if (found == DXL_FIND_PACKET) {
-        on_packet(link, servo, &packet);
-      } else {
-        on_bad_checksum(link, servo, &packet);
-      }
-      /* The ready PING reply is rebuilt when the packet changed something (a reply that used
-       * the buffer rebuilds it when it has left); another servo's packet, the usual case on a
-       * busy bus, changes nothing. */
-      if (link->response.action != DXL_ACTION_NONE) {
-        refresh_ping_reply(link, servo);
-      }
-      if (found == DXL_FIND_BAD_CHECKSUM) {
-        /* One rejected candidate a pass: a flood of garbage cannot starve the control tick. */
-        dxl_link_port_wake(link->port);
-        return;
-      }
-    } else if (dxl_link_port_rx_head(link->port) != dxl_link_port_rx_tail(link->port) &&
-               push_waiting_bytes(link, UINT8_MAX) != 0) {
-      link->finder_dirty = true;
-    } else if (dxl_link_port_sniff_state(link->port) == DXL_LINK_SNIFF_ARMED) {
-      continue; /* adopt it */
-    } else {
-      sniff_start(link, servo);
-      return;
-    }
+    return true; /* one packet a call: the control tick runs between packets too */
   }
 }
 
 void dxl_link_service_reply(dxl_link_t *link, dxl_servo_t *servo) {
-  adopt_sniffed(link); /* before DONE is taken for a reply of its own */
-  if (!link->armed && dxl_link_port_reply_state(link->port) == DXL_LINK_REPLY_DONE) {
-    dxl_link_port_reply_finish(link->port);
-    const uint8_t after = link->after_reply;
-    link->after_reply = 0;
-    dxl_after_reply(servo, after, link->port);
-    refresh_ping_reply(link, servo);
+  if (reply_done(link, dxl_link_port_state(link->port))) {
+    reply_left(link, servo);
   }
 }
 
-/* A packet the sniff holds (part-way past its header, or an armed reply whose checksum does
- * not come) is given up after DXL_LINK_SNIFF_MAX_MS without a byte, long before the finder's
- * gap timeout could split it: its bytes go to the finder, which applies the gap rule. */
-static void sniff_timeout(dxl_link_t *link, dxl_servo_t *servo, uint8_t sniff) {
-  const uint8_t head = dxl_link_port_rx_head(link->port);
-  if ((link->armed || (sniff > DXL_LINK_SNIFF_LENGTH && sniff < DXL_LINK_SNIFF_ARMED)) &&
-      head == link->sniff_seen_head) {
-    if (++link->sniff_age_ms >= DXL_LINK_SNIFF_MAX_MS) {
-      dxl_link_port_sniff_stop_part_way(link->port);
-      if (link->armed && dxl_link_port_reply_disarm(link->port)) {
-        link->armed = false;
-        refresh_ping_reply(link, servo); /* a streamed reply may have been prepared into its buffer */
-      }
-    }
-  } else {
-    link->sniff_age_ms = 0;
-    link->sniff_seen_head = head;
-  }
-}
-
-/* Another servo's packet the RX interrupt passes over, and a header the sniff frames without
- * storing it, end like any partial packet when no byte came for more than
- * DXL_PACKET_GAP_TIMEOUT_MS (docs/policy.md "Framing and bus"): the skip stops, the header is
- * dropped, as the finder drops what came before a gap. Progress is the skip count or the
- * header state changing between ticks (bytes that bring it back to the same value within 1 ms
- * every time for 100 ms could end either early: the rest then reaches the sniff or the finder,
- * which frame nothing of it). */
-static void quiet_timeout(dxl_link_t *link, uint8_t sniff) {
-  const uint8_t skip = dxl_link_port_skip_count(link->port);
-  const uint8_t quiet = skip != 0 ? skip : (sniff <= DXL_LINK_SNIFF_LENGTH ? sniff : 0u);
-  if (quiet != 0 && quiet == link->quiet_seen) {
-    if (++link->quiet_age_ms > DXL_PACKET_GAP_TIMEOUT_MS) {
-      /* A byte just now would have come after the gap: not the packet's. */
-      dxl_link_port_skip_end(link->port);
-      dxl_link_port_sniff_restart_if(link->port, sniff);
-    }
-  } else {
-    link->quiet_seen = quiet;
-    link->quiet_age_ms = 0;
-  }
-}
-
-void dxl_link_tick(dxl_link_t *link, dxl_servo_t *servo, uint16_t now_ms) {
-  const uint8_t sniff = dxl_link_port_sniff_state(link->port);
-  sniff_timeout(link, servo, sniff);
-  quiet_timeout(link, sniff);
-  /* Not while a rescan is pending (bytes pushed or a result taken, replies holding up the
-   * rest): the finder marks one gap, and a poll then could move the mark past bytes that came
-   * after it, joining them to the bytes before it (docs/policy.md: no packet spans a gap).
-   * No byte is pushed before the rescan is done (the armed path's go into a finder with
-   * nothing to rescan), so the gap is polled then, from the same last byte. */
-  if (!link->armed && !link->finder_dirty) {
-    link->finder_dirty = dxl_finder_poll(&link->finder, now_ms); /* rescan what came before the gap */
-  }
-}
+void dxl_link_tick(dxl_link_t *link) { dxl_link_port_rx_tick(link->port); }
 
 void dxl_link_conditions_changed(dxl_link_t *link, dxl_servo_t *servo, uint8_t conditions) {
   /* Anything else that changes the ready PING reply comes with a packet or a reply, which

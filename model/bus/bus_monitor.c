@@ -4,16 +4,16 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dxl_frame.h"
 #include "packet_encode.h"
 
-/* Protocol 1.0 as the manual gives it (not the firmware's header: the monitor watches the
- * firmware, as packet_encode.c does). */
+/* Protocol 1.0 as the manual gives it (the raw bytes of a record are read here apart from the
+ * firmware's code; the framing is the one rule every reader follows, dxl_frame.h). */
 #define HEADER_BYTE 0xFFu
 #define SHORTEST_LENGTH 2u /* LENGTH of a packet with no parameters: code + checksum */
-/* Protocol 2.0: FF FF FD 00 ID LEN_L LEN_H, then LEN bytes (instruction, params, CRC). */
-#define P2_ID_BYTE 0xFDu
-#define P2_RESERVED_BYTE 0x00u
-#define P2_BYTES_AFTER_HEADER 5u /* FD 00 ID LEN_L LEN_H */
+/* Header bytes held at most (two 0xFF and the further ones, then the ID): a record keeps room
+ * for the ID, the LENGTH and 255 bytes after them; further 0xFF beyond it are garbage. */
+#define HEADER_HELD_MAX (BUS_MONITOR_MAX_RAW - 2u - 255u)
 
 _Static_assert(BUS_MONITOR_MAX_RAW >= 2u + 2u + 255u, "a record holds the longest 1.0 packet");
 
@@ -27,11 +27,11 @@ typedef struct {
 
 /* What one sender has sent that is not reported yet. */
 typedef struct {
-  mon_byte_t candidate[BUS_MONITOR_MAX_RAW]; /* bytes from a possible header on */
-  size_t candidate_count;
+  dxl_frame_t frame;                    /* the framing step's state of this sender's bytes */
+  mon_byte_t held[BUS_MONITOR_MAX_RAW]; /* the header, packet or 2.0 frame under way */
+  size_t held_count;
   mon_byte_t garbage[BUS_MONITOR_MAX_RAW]; /* the garbage before them */
   size_t garbage_count;
-  uint32_t p2_left; /* bytes of a 2.0 frame still to come after candidate[] (swallowing) */
   sim_cycles_t last_end;
   bool listed; /* in open[] */
 } sender_t;
@@ -157,102 +157,79 @@ static void report_garbage(bus_monitor_t *mon, uint8_t sender, sender_t *s) {
   s->garbage_count = 0;
 }
 
-/* Moves the first n candidate bytes out (reported by the caller). */
-static void drop_candidate(sender_t *s, size_t n) {
-  memmove(s->candidate, s->candidate + n, (s->candidate_count - n) * sizeof(mon_byte_t));
-  s->candidate_count -= n;
-}
-
-/* The first candidate byte starts no packet: it joins the garbage. */
-static void first_to_garbage(bus_monitor_t *mon, uint8_t sender, sender_t *s) {
+static void add_garbage(bus_monitor_t *mon, uint8_t sender, sender_t *s, const mon_byte_t *b) {
   if (s->garbage_count == BUS_MONITOR_MAX_RAW) {
     report_garbage(mon, sender, s);
   }
-  s->garbage[s->garbage_count++] = s->candidate[0];
-  drop_candidate(s, 1);
+  s->garbage[s->garbage_count++] = *b;
 }
 
-/* ---- framing ---- */
-
-typedef enum { FRAME_NEED_MORE, FRAME_NOT_PACKET, FRAME_PACKET, FRAME_PROTOCOL2 } frame_t;
-
-/* What the candidate bytes begin with; *total is the size of the packet or 2.0 frame. */
-static frame_t frame(const mon_byte_t *b, size_t count, size_t *total) {
-  if (b[0].value != HEADER_BYTE) {
-    return FRAME_NOT_PACKET;
+/* The held bytes were no packet: garbage. */
+static void held_to_garbage(bus_monitor_t *mon, uint8_t sender, sender_t *s) {
+  for (size_t i = 0; i < s->held_count; i++) {
+    add_garbage(mon, sender, s, &s->held[i]);
   }
-  if (count < 2u) {
-    return FRAME_NEED_MORE;
-  }
-  if (b[1].value != HEADER_BYTE) {
-    return FRAME_NOT_PACKET;
-  }
-  size_t h = 2; /* the ID's position, after any extra header bytes */
-  while (h < count && b[h].value == HEADER_BYTE) {
-    h++;
-  }
-  if (h + 2u > count) {
-    return h + 2u + SHORTEST_LENGTH > BUS_MONITOR_MAX_RAW ? FRAME_NOT_PACKET : FRAME_NEED_MORE;
-  }
-  if (b[h].value == P2_ID_BYTE && b[h + 1u].value == P2_RESERVED_BYTE) {
-    if (h + P2_BYTES_AFTER_HEADER > count) {
-      return FRAME_NEED_MORE;
-    }
-    *total = h + P2_BYTES_AFTER_HEADER + ((size_t)b[h + 3u].value | ((size_t)b[h + 4u].value << 8));
-    return FRAME_PROTOCOL2;
-  }
-  const size_t length = b[h + 1u].value;
-  if (length < SHORTEST_LENGTH) {
-    return FRAME_NOT_PACKET;
-  }
-  *total = h + 2u + length;
-  if (*total > BUS_MONITOR_MAX_RAW) {
-    return FRAME_NOT_PACKET; /* too many extra header bytes: drop them one by one */
-  }
-  return *total <= count ? FRAME_PACKET : FRAME_NEED_MORE;
+  s->held_count = 0;
 }
 
-/* Reports what the candidate bytes hold, as far as they go. `ending`: nothing more comes from
- * this sender for them (gap, another sender, finish): an incomplete packet is garbage. */
-static void scan(bus_monitor_t *mon, uint8_t sender, sender_t *s, bool ending) {
-  while (s->candidate_count > 0 && s->p2_left == 0) {
-    size_t total = 0;
-    const frame_t f = frame(s->candidate, s->candidate_count, &total);
-    if (f == FRAME_PACKET) {
-      report_garbage(mon, sender, s);
-      report(mon, sender, sends_instructions(mon, sender) ? BUS_PACKET_INSTRUCTION : BUS_PACKET_STATUS, s->candidate,
-             total);
-      drop_candidate(s, total);
-    } else if (f == FRAME_PROTOCOL2) {
-      report_garbage(mon, sender, s);
-      if (total <= s->candidate_count || ending) {
-        const size_t n = total < s->candidate_count ? total : s->candidate_count;
-        report(mon, sender, BUS_PACKET_PROTOCOL2, s->candidate, n);
-        drop_candidate(s, n);
-      } else if (total > BUS_MONITOR_MAX_RAW) {
-        s->p2_left = (uint32_t)(total - s->candidate_count); /* swallowed as it comes */
-      } else {
-        return;
-      }
-    } else if (f == FRAME_NOT_PACKET || ending) {
-      first_to_garbage(mon, sender, s);
-    } else {
-      return;
+/* The held bytes as one record (the garbage before them first). */
+static void report_held(bus_monitor_t *mon, uint8_t sender, sender_t *s, bus_packet_kind_t kind) {
+  report_garbage(mon, sender, s);
+  report(mon, sender, kind, s->held, s->held_count);
+  s->held_count = 0;
+}
+
+/* ---- framing: the step every reader runs, dxl_frame.h ---- */
+
+static void frame_byte(bus_monitor_t *mon, uint8_t sender, sender_t *s, const mon_byte_t *b) {
+  switch (dxl_frame_step(&s->frame, b->value)) {
+  case DXL_BYTE_GARBAGE: /* and the header it ended, if any */
+    held_to_garbage(mon, sender, s);
+    add_garbage(mon, sender, s, b);
+    break;
+  case DXL_BYTE_HEADER:
+    if (s->held_count == HEADER_HELD_MAX) { /* a header of hundreds of 0xFF: the first are garbage */
+      add_garbage(mon, sender, s, &s->held[0]);
+      memmove(s->held, s->held + 1, (s->held_count - 1u) * sizeof(mon_byte_t));
+      s->held_count--;
     }
-  }
-  if (ending) {
-    if (s->p2_left) {
-      report(mon, sender, BUS_PACKET_PROTOCOL2, s->candidate, s->candidate_count);
-      s->candidate_count = 0;
-      s->p2_left = 0;
+    s->held[s->held_count++] = *b;
+    break;
+  case DXL_BYTE_LENGTH:
+  case DXL_BYTE_BODY:
+    s->held[s->held_count++] = *b;
+    break;
+  case DXL_BYTE_CHECKSUM:
+  case DXL_BYTE_CHECKSUM_BAD:
+    s->held[s->held_count++] = *b;
+    report_held(mon, sender, s, sends_instructions(mon, sender) ? BUS_PACKET_INSTRUCTION : BUS_PACKET_STATUS);
+    break;
+  default: /* DXL_BYTE_PROTOCOL2: reported when it ends, a long one in several records */
+    s->held[s->held_count++] = *b;
+    if (s->frame.state == DXL_FRAME_SEARCH || s->held_count == BUS_MONITOR_MAX_RAW) {
+      report_held(mon, sender, s, BUS_PACKET_PROTOCOL2);
     }
-    report_garbage(mon, sender, s);
+    break;
   }
+}
+
+/* Nothing more comes from this sender for what it has under way (gap, another sender,
+ * finish): a 2.0 frame is reported as far as it came, anything else held is garbage, and the
+ * next byte starts a search. */
+static void end_under_way(bus_monitor_t *mon, uint8_t sender, sender_t *s) {
+  if (s->frame.state >= DXL_FRAME_P2_ID && s->held_count != 0) {
+    report_held(mon, sender, s, BUS_PACKET_PROTOCOL2);
+  }
+  held_to_garbage(mon, sender, s);
+  report_garbage(mon, sender, s);
+  dxl_frame_reset(&s->frame);
 }
 
 /* ---- senders with bytes not reported ---- */
 
-static bool has_bytes(const sender_t *s) { return s->candidate_count || s->garbage_count || s->p2_left; }
+static bool has_bytes(const sender_t *s) {
+  return s->held_count || s->garbage_count || s->frame.state != DXL_FRAME_SEARCH;
+}
 
 static void relist(bus_monitor_t *mon, uint8_t sender, sender_t *s) {
   const bool want = has_bytes(s);
@@ -271,7 +248,7 @@ static void relist(bus_monitor_t *mon, uint8_t sender, sender_t *s) {
 
 static void end_partial(bus_monitor_t *mon, uint8_t sender) {
   sender_t *s = mon->senders[sender];
-  scan(mon, sender, s, true);
+  end_under_way(mon, sender, s);
   relist(mon, sender, s);
 }
 
@@ -298,23 +275,12 @@ void bus_monitor_byte(void *ctx, const bus_tap_byte_t *byte) {
     end_partial(mon, byte->sender);
   }
   s->last_end = byte->end;
-  if (s->candidate_count == BUS_MONITOR_MAX_RAW) {
-    first_to_garbage(mon, byte->sender, s); /* a header of hundreds of FF bytes: never a packet */
-  }
   const mon_byte_t b = {.start = byte->start,
                         .end = byte->end,
                         .value = byte->sent,
                         .flags = byte->flags,
                         .noise = byte->wire != byte->sent || (byte->flags & BUS_RX_FRAMING_ERROR)};
-  s->candidate[s->candidate_count++] = b;
-  if (s->p2_left) {
-    if (--s->p2_left == 0 || s->candidate_count == BUS_MONITOR_MAX_RAW) {
-      report(mon, byte->sender, BUS_PACKET_PROTOCOL2, s->candidate, s->candidate_count);
-      s->candidate_count = 0;
-    }
-  } else {
-    scan(mon, byte->sender, s, false);
-  }
+  frame_byte(mon, byte->sender, s, &b);
   relist(mon, byte->sender, s);
 }
 

@@ -1,21 +1,21 @@
 /* SPDX-License-Identifier: MIT */
 /* The bus monitor: every byte the bus finalizes (its tap, bus_set_tap) grouped, sender by
  * sender, into Dynamixel Protocol 1.0 packets, each handed to the listeners as one record
- * (bus_packet_t). Pure C, no simavr, decoded from the manual and not by the firmware.
+ * (bus_packet_t). Pure C, no simavr.
  *
- * Framing, per sender:
+ * Framing, per sender, by the rule every reader follows (docs/policy.md "Framing and bus",
+ * firmware/core/dxl_frame.h, whose step it runs):
  * - A packet is FF FF (more FF tolerated) ID LENGTH code params... checksum, LENGTH >= 2
  *   counting the bytes after it. code is the instruction when the client sent it
  *   (bus_monitor_set_client), the error byte of a status packet when a servo did.
  * - It is framed by its LENGTH: a wrong checksum gives a record with checksum_ok false, the
  *   packet's bytes consumed (as a servo frames a packet for another ID).
- * - Bytes that start no packet (before a header, a LENGTH below 2) are garbage: the first byte
- *   is dropped and the rest scanned again, so a packet that begins inside garbage is found.
- *   Consecutive garbage bytes make one BUS_PACKET_GARBAGE record.
+ * - Bytes that start no packet (before a header, a header with a LENGTH below 2) are garbage;
+ *   consecutive garbage bytes make one BUS_PACKET_GARBAGE record.
  * - A Protocol 2.0 frame (FF FF FD 00 ID LEN_L LEN_H ...) is skipped whole by its 16-bit
  *   length and reported as BUS_PACKET_PROTOCOL2 (a long one in several records), so FF FF
  *   inside it never starts a 1.0 packet.
- * - A partial packet ends, its bytes scanned again with the rest reported as garbage, when its
+ * - A partial packet ends, its bytes reported as garbage (a 2.0 frame's as such), when its
  *   sender is silent for longer than the gap (seen at its next byte or at bus_monitor_flush),
  *   when another sender starts a byte after the partial packet's last byte ended (it took the
  *   wire; a byte that collided with any other, as in replies sent in lockstep, ends nothing),

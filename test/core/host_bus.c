@@ -10,7 +10,7 @@
 #define BAUD_CLOCK_HZ 2000000u
 #define BAUD_TOLERANCE_PERCENT 3u
 #define POLL_STEP_MS 50u /* the links tick at least this often while idle */
-#define PENDING_MAX (4u * HOST_BUS_MAX_SERVOS) /* replies one byte can cause (rescans included) */
+#define PENDING_MAX (4u * HOST_BUS_MAX_SERVOS) /* replies one byte can cause */
 
 typedef struct {
   size_t servo_index;
@@ -31,8 +31,6 @@ bool host_bus_bauds_match(uint8_t a, uint8_t b) {
 static uint64_t byte_time_us(uint8_t baud_register) {
   return ((uint64_t)BITS_PER_BYTE * 1000000u + baud_bps(baud_register) - 1u) / baud_bps(baud_register);
 }
-
-static uint16_t now_ms(const host_bus_t *bus) { return (uint16_t)(bus->now_us / 1000u); }
 
 static void set_temperature(host_bus_t *bus, host_bus_servo_t *hs) {
   hs->servo.table[CT_ADDR_PRESENT_TEMPERATURE] = bus->temperature_c;
@@ -56,7 +54,8 @@ static void on_handled(void *context, dxl_find_result_t found, const uint8_t *by
     hs->bad_checksums++;
   }
   if (bus->observer != NULL) {
-    const host_bus_event_t event = {hs->index, found, hs->uart.taken_count - hs->link.finder.fill, bytes, length,
+    const host_bus_event_t event = {hs->index, found,
+                                    fake_uart_wire_index(&hs->uart, hs->uart.taken_count - hs->link.finder.fill), bytes, length,
                                     response};
     bus->observer(bus->observer_context, bus, &event);
   }
@@ -114,10 +113,8 @@ void host_bus_copy(host_bus_t *dst, const host_bus_t *src) {
  * harness's to fill (the control layer's on the firmware). */
 static void service(host_bus_t *bus, host_bus_servo_t *hs, pending_reply_t *pending, size_t *pending_count) {
   hs->uart.now_us = bus->now_us;
-  do {
-    hs->uart.woken = false;
-    dxl_link_service_rx(&hs->link, &hs->servo);
-  } while (hs->uart.woken);
+  while (dxl_link_service_rx(&hs->link, &hs->servo)) {
+  }
   set_temperature(bus, hs);
   if (hs->uart.reply_state == DXL_LINK_REPLY_SENDING && *pending_count < PENDING_MAX) {
     pending_reply_t *p = &pending[(*pending_count)++];
@@ -224,7 +221,7 @@ void host_bus_wait_ms(host_bus_t *bus, uint32_t ms) {
       pending_reply_t pending[PENDING_MAX];
       size_t pending_count = 0;
       hs->uart.now_us = bus->now_us;
-      dxl_link_tick(&hs->link, &hs->servo, now_ms(bus));
+      dxl_link_tick(&hs->link);
       service(bus, hs, pending, &pending_count);
       transmit_replies(bus, pending, pending_count);
     }

@@ -6,7 +6,7 @@
  *
  * Model (what the host harness decides; the simavr level has the real timing):
  * - Time is a microsecond clock. A byte takes 10 bit times at its sender's baud
- *   (2 000 000 / (register + 1) bps); the finders get the clock in ms (wrapping at 2^16).
+ *   (2 000 000 / (register + 1) bps); the receivers measure the gap on it in whole ms.
  * - A byte reaches a receiver only when sender and receiver bauds are within 3 %
  *   (docs/policy.md "Framing and bus"); otherwise it is lost (the garbling is not modelled).
  * - The bus is serialised: when a byte completes a packet, every answering servo's reply is
@@ -14,9 +14,9 @@
  *   before the master's next byte. Replies whose time windows overlap are still delivered
  *   one after the other, and `collision` is set. A reply reaches the master and every other
  *   servo (which frame and ignore it); a servo does not hear its own echo.
- * - Each servo's link is the firmware's (no sniff: every packet goes through the finder and is
- *   answered from the link, as the firmware's main loop answers what its sniff does not arm):
- *   one reply at a time, bytes that come meanwhile wait in its ring; what follows a packet is
+ * - Each servo's link is the firmware's, on a receiver that frames as the firmware's RX
+ *   interrupt does and arms nothing (every packet is answered from the link, as the firmware's
+ *   main loop answers what its RX interrupt does not arm): one reply at a time, bytes that come meanwhile wait in its ring; what follows a packet is
  *   the firmware's own policy (firmware/link/dxl_after.h): a write of the EEPROM area rebuilds
  *   the servo's EEPROM image when it is committed (at once here: the firmware's store takes
  *   milliseconds in the background); after the reply has left (or at once when the servo
@@ -48,9 +48,10 @@
 
 typedef struct host_bus host_bus_t;
 
-/* Called for every packet a servo's finder framed, after the servo handled it.
- * first_rx_index: index (in the bytes this servo's link has taken since power-up, uart.taken_count) of the
- * packet's first byte; bytes/length: the packet as framed (FF FF ID LENGTH ... CHECKSUM). */
+/* Called for every packet a servo's link framed, after the servo handled it.
+ * first_rx_index: index (in the bytes this servo has received since power-up,
+ * uart.received_count) of the packet's first byte, the FF FF right before its ID; bytes/length:
+ * the packet as framed (FF FF ID LENGTH ... CHECKSUM). */
 typedef struct {
   size_t servo_index;
   dxl_find_result_t kind; /* DXL_FIND_PACKET or DXL_FIND_BAD_CHECKSUM */
@@ -100,7 +101,7 @@ void host_bus_send(host_bus_t *bus, const uint8_t *bytes, size_t length);
 /* The same without clearing what was heard before (for streams sent in pieces). */
 void host_bus_send_more(host_bus_t *bus, const uint8_t *bytes, size_t length);
 
-/* The bus stays idle for ms milliseconds (the finders see the gap). */
+/* The bus stays idle for ms milliseconds (the receivers see the gap). */
 void host_bus_wait_ms(host_bus_t *bus, uint32_t ms);
 
 void host_bus_set_master_baud(host_bus_t *bus, uint8_t baud_register);

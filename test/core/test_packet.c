@@ -1,5 +1,6 @@
-/* The packet finder (dxl_packet.h): framing, resynchronisation, the inter-byte gap and the
- * checksum, fed one byte at a time as the UART delivers them. */
+/* The packet finder (dxl_packet.h) and the framing step under it (dxl_frame.h): framing by
+ * LENGTH, what follows a packet for another ID, a bad checksum or a gap, and the checksum, fed
+ * one byte at a time as the UART delivers them and in batches as the link layer pushes them. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -26,6 +27,7 @@ typedef struct {
 typedef struct {
   dxl_finder_t finder;
   uint16_t now_ms;
+  uint16_t last_byte_ms;
   found_t found[MAX_FOUND];
   size_t count;
 } finder_run_t;
@@ -34,40 +36,37 @@ static void given_finder(finder_run_t *run, uint16_t start_ms) {
   memset(run, 0, sizeof *run);
   dxl_finder_init(&run->finder);
   run->now_ms = start_ms;
+  run->last_byte_ms = start_ms;
 }
 
-/* Records every result the finder has until DXL_FIND_NONE. */
-static void take_results(finder_run_t *run) {
-  dxl_packet_t packet;
-  dxl_find_result_t kind;
-  while ((kind = dxl_finder_next(&run->finder, &packet)) != DXL_FIND_NONE) {
-    assert_true(run->count < MAX_FOUND);
-    found_t *f = &run->found[run->count++];
-    f->kind = kind;
-    f->id = packet.id;
-    f->instruction = packet.instruction;
-    f->param_count = packet.param_count;
-    memcpy(f->params, packet.params, packet.param_count);
-    f->checksum = packet.checksum;
+static void record(finder_run_t *run, dxl_find_result_t kind, const dxl_packet_t *packet) {
+  if (kind == DXL_FIND_NONE) {
+    return;
   }
+  assert_true(run->count < MAX_FOUND);
+  found_t *f = &run->found[run->count++];
+  f->kind = kind;
+  f->id = packet->id;
+  f->instruction = packet->instruction;
+  f->param_count = packet->param_count;
+  memcpy(f->params, packet->params, packet->param_count);
+  f->checksum = packet->checksum;
 }
 
-/* Pushes bytes at the current time and records every result. */
+/* Pushes bytes at the current time, as a reader with a millisecond clock does: a byte more than
+ * 100 ms after the one before it comes after a gap (dxl_frame_gap). Records every result. */
 static void when_bytes_arrive(finder_run_t *run, const uint8_t *bytes, size_t count) {
   for (size_t i = 0; i < count; i++) {
-    dxl_finder_push(&run->finder, bytes[i], run->now_ms);
-    take_results(run);
+    if (dxl_frame_gap(run->last_byte_ms, run->now_ms)) {
+      dxl_finder_gap(&run->finder);
+    }
+    run->last_byte_ms = run->now_ms;
+    dxl_packet_t packet;
+    record(run, dxl_finder_push(&run->finder, bytes[i], &packet), &packet);
   }
 }
 
 #define ARRIVE(run, ...) when_bytes_arrive((run), P(__VA_ARGS__))
-
-/* The line idles until now_ms: poll, then take whatever the bytes before the gap still hold. */
-static void when_line_idles_until(finder_run_t *run, uint16_t now_ms) {
-  run->now_ms = now_ms;
-  dxl_finder_poll(&run->finder, now_ms);
-  take_results(run);
-}
 
 static void then_found_packet(const finder_run_t *run, size_t index, uint8_t id, uint8_t instruction,
                               uint8_t param_count) {
@@ -126,16 +125,22 @@ static void test_the_finder_resyncs_after_garbage(void **state) {
   then_found_packet(&run, 0, 1, DXL_INST_PING, 0);
 }
 
-static void test_a_packet_starting_inside_a_bad_candidate_is_still_found(void **state) {
+/* docs/policy.md "Framing and bus": a packet is the LENGTH bytes after its header, whatever its
+ * checksum turns out to be, and the search goes on after them. */
+static void test_a_bad_packet_takes_the_bytes_its_length_counts(void **state) {
   (void)state;
   finder_run_t run;
   given_finder(&run, 0);
-  /* FF FF 05 03 opens a candidate of 7 bytes that swallows the start of a PING; its checksum
-   * is wrong, so the finder rescans from its second byte and finds the PING. */
+  /* FF FF 05 03 counts three bytes, FF FF 01, which begin a PING: its checksum is wrong, and
+   * what is left of the PING is garbage. */
   ARRIVE(&run, 0xFF, 0xFF, 0x05, 0x03, 0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB);
-  assert_int_equal(run.count, 2);
+  assert_int_equal(run.count, 1);
   assert_int_equal(run.found[0].kind, DXL_FIND_BAD_CHECKSUM);
   assert_int_equal(run.found[0].id, 5);
+  assert_int_equal(run.found[0].checksum, 0x01);
+  /* and the next packet is found from its first byte */
+  ARRIVE(&run, 0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB);
+  assert_int_equal(run.count, 2);
   then_found_packet(&run, 1, 1, DXL_INST_PING, 0);
 }
 
@@ -207,36 +212,35 @@ static void test_the_gap_is_measured_across_the_wrap_of_the_ms_clock(void **stat
   assert_int_equal(run.count, 0);
 }
 
-static void test_poll_discards_a_partial_packet_while_the_line_is_idle(void **state) {
+/* A gap ends the packet under way, its bytes included: the finder is idle at once, the next
+ * byte starts a search. */
+static void test_a_gap_leaves_the_finder_idle(void **state) {
   (void)state;
   finder_run_t run;
   given_finder(&run, 0);
   ARRIVE(&run, 0xFF, 0xFF, 0x01, 0x02, 0x01);
-  when_line_idles_until(&run, DXL_PACKET_GAP_TIMEOUT_MS);
-  assert_int_not_equal(run.finder.fill, 0); /* 100 ms: kept */
-  when_line_idles_until(&run, DXL_PACKET_GAP_TIMEOUT_MS + 1u);
-  assert_int_equal(run.finder.fill, 0);
-  /* 200 ms later the poll would see only 100 ms if it never ran; it did, so nothing is left */
-  run.now_ms = 2u * DXL_PACKET_GAP_TIMEOUT_MS;
+  assert_false(dxl_finder_idle(&run.finder));
+  assert_int_equal(dxl_finder_left(&run.finder), 1);
+  dxl_finder_gap(&run.finder);
+  assert_true(dxl_finder_idle(&run.finder));
+  assert_int_equal(dxl_finder_left(&run.finder), 0);
   ARRIVE(&run, 0xFB);
   assert_int_equal(run.count, 0);
 }
 
-static void test_a_packet_hidden_behind_a_garbage_header_survives_a_gap(void **state) {
+/* A garbage header whose LENGTH covers a whole PING: the PING is part of it, not a packet, and
+ * is not found when the line then idles past the gap (nothing is rescanned); what follows the
+ * gap is framed afresh. */
+static void test_a_packet_inside_a_garbage_headers_length_is_not_a_packet(void **state) {
   (void)state;
   finder_run_t run;
   given_finder(&run, 0);
-  /* A garbage header announcing 200 bytes swallows a whole valid PING; then the line idles. */
   ARRIVE(&run, 0xFF, 0xFF, 0x07, 0xC8, 0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB);
   assert_int_equal(run.count, 0);
-  when_line_idles_until(&run, DXL_PACKET_GAP_TIMEOUT_MS + 1u);
-  assert_int_equal(run.count, 1);
-  then_found_packet(&run, 0, 0x01, 0x01, 0);
-  assert_int_equal(run.finder.fill, 0);
-  /* and what follows the gap is framed afresh */
+  run.now_ms = DXL_PACKET_GAP_TIMEOUT_MS + 1u;
   ARRIVE(&run, 0xFF, 0xFF, 0x02, 0x02, 0x01, 0xFA);
-  assert_int_equal(run.count, 2);
-  then_found_packet(&run, 1, 0x02, 0x01, 0);
+  assert_int_equal(run.count, 1);
+  then_found_packet(&run, 0, 0x02, 0x01, 0);
 }
 
 static void test_no_packet_spans_a_gap(void **state) {
@@ -249,21 +253,25 @@ static void test_no_packet_spans_a_gap(void **state) {
   assert_int_equal(run.count, 0);
 }
 
-/* A batch of no bytes (main.c's armed path pushes one while the checksum is still on the
- * wire) is no byte: the gap since the last byte goes on. Found by fuzz_core. */
-static void test_an_empty_batch_does_not_restart_the_gap(void **state) {
+/* A batch of no bytes (the link layer's take when the ring is empty) is no byte, in a header
+ * and in a body. */
+static void test_an_empty_batch_is_no_byte(void **state) {
   (void)state;
   finder_run_t run;
   given_finder(&run, 0);
-  ARRIVE(&run, 0xFF, 0xFF, 0x01, 0x02, 0x01);
-  run.now_ms = 60;
-  uint16_t room;
-  (void)dxl_finder_push_slot(&run.finder, &room, run.now_ms);
-  dxl_finder_pushed(&run.finder, 0, run.now_ms);
-  take_results(&run);
-  run.now_ms = DXL_PACKET_GAP_TIMEOUT_MS + 1u;
-  ARRIVE(&run, 0xFB); /* 101 ms after the last byte: not the PING's checksum */
-  assert_int_equal(run.count, 0);
+  dxl_packet_t packet;
+  uint16_t count;
+  ARRIVE(&run, 0xFF, 0xFF, 0x01);
+  (void)dxl_finder_slot(&run.finder, &count);
+  assert_int_equal(count, 1);
+  assert_int_equal(dxl_finder_pushed(&run.finder, 0, &packet), DXL_FIND_NONE);
+  ARRIVE(&run, 0x02, 0x01);
+  (void)dxl_finder_slot(&run.finder, &count);
+  assert_int_equal(count, 1); /* the checksum: a batch never passes a packet's end */
+  assert_int_equal(dxl_finder_pushed(&run.finder, 0, &packet), DXL_FIND_NONE);
+  ARRIVE(&run, 0xFB);
+  assert_int_equal(run.count, 1);
+  then_found_packet(&run, 0, 1, DXL_INST_PING, 0);
 }
 
 static void test_status_packets_of_other_servos_are_framed(void **state) {
@@ -328,10 +336,10 @@ static void test_the_candidate_describes_the_packet_before_its_checksum(void **s
   then_found_packet(&run, 0, 1, DXL_INST_READ, 2);
 }
 
-/* The firmware pushes whatever the ring holds in one batch (dxl_finder_push_slot) and only
- * then runs the finder; a host pushes byte by byte. A seeded stream of packets (some with a
- * bad checksum), garbage rich in 0xFF and gaps, cut into batches of 1..40 bytes, gives the
- * same results in the same order. */
+/* The link layer pushes what the ring holds in batches (dxl_finder_slot: a packet's body in one
+ * tight loop); a host pushes byte by byte. A seeded stream of packets (some with a bad
+ * checksum), garbage rich in 0xFF and gaps, cut into batches of 1..40 bytes, gives the same
+ * results in the same order. */
 static uint32_t next_random(uint32_t *state) {
   *state = *state * 1664525u + 1013904223u;
   return *state >> 8;
@@ -343,10 +351,9 @@ typedef struct {
   size_t count;
 } digest_run_t;
 
-static void digest_results(digest_run_t *run) {
-  dxl_packet_t packet;
-  dxl_find_result_t kind;
-  while ((kind = dxl_finder_next(&run->finder, &packet)) != DXL_FIND_NONE) {
+static void digest_result(digest_run_t *run, dxl_find_result_t kind, const dxl_packet_t *p) {
+  if (kind != DXL_FIND_NONE) {
+    const dxl_packet_t packet = *p;
     uint32_t d = (uint32_t)kind * 16777619u ^ packet.id;
     d = d * 16777619u ^ packet.instruction;
     d = d * 16777619u ^ packet.param_count;
@@ -389,7 +396,6 @@ static void test_batches_find_what_single_bytes_find(void **state) {
   const size_t n = random_stream(stream, STREAM, gap_before, &seed);
   dxl_finder_init(&single.finder);
   dxl_finder_init(&batched.finder);
-  uint16_t now_ms = 0;
   for (size_t i = 0; i < n;) {
     size_t batch = 1u + next_random(&seed) % 40u;
     if (batch > n - i) {
@@ -401,23 +407,21 @@ static void test_batches_find_what_single_bytes_find(void **state) {
         break;
       }
     }
-    now_ms = (uint16_t)(now_ms + (gap_before[i] ? DXL_PACKET_GAP_TIMEOUT_MS + 1u : 0u));
-    dxl_finder_poll(&single.finder, now_ms);
-    digest_results(&single);
-    dxl_finder_poll(&batched.finder, now_ms);
-    digest_results(&batched);
+    if (gap_before[i]) {
+      dxl_finder_gap(&single.finder);
+      dxl_finder_gap(&batched.finder);
+    }
+    dxl_packet_t packet;
     for (size_t k = 0; k < batch; k++) {
-      dxl_finder_push(&single.finder, stream[i + k], now_ms);
-      digest_results(&single);
+      digest_result(&single, dxl_finder_push(&single.finder, stream[i + k], &packet), &packet);
     }
     for (size_t pushed = 0; pushed < batch;) {
       uint16_t room;
-      uint8_t *slot = dxl_finder_push_slot(&batched.finder, &room, now_ms);
+      uint8_t *slot = dxl_finder_slot(&batched.finder, &room);
       const size_t take = room < batch - pushed ? room : batch - pushed;
       memcpy(slot, &stream[i + pushed], take);
-      dxl_finder_pushed(&batched.finder, (uint16_t)take, now_ms);
       pushed += take;
-      digest_results(&batched);
+      digest_result(&batched, dxl_finder_pushed(&batched.finder, (uint16_t)take, &packet), &packet);
     }
     i += batch;
   }
@@ -453,15 +457,13 @@ static void test_a_protocol2_frame_is_skipped_whole_with_a_1_0_packet_inside(voi
   assert_int_equal(run.count, 1);
   then_found_packet(&run, 0, 3, DXL_INST_PING, 0);
 
-  given_finder(&run, 0);
-  uint16_t room;
-  uint8_t *slot = dxl_finder_push_slot(&run.finder, &room, 0);
-  memcpy(slot, protocol2_write_with_a_ping_inside, sizeof protocol2_write_with_a_ping_inside);
-  memcpy(slot + sizeof protocol2_write_with_a_ping_inside, (const uint8_t[]){0xFF, 0xFF, 0x03, 0x02, 0x01, 0xF9}, 6);
-  dxl_finder_pushed(&run.finder, sizeof protocol2_write_with_a_ping_inside + 6u, 0);
-  take_results(&run);
-  assert_int_equal(run.count, 1);
-  then_found_packet(&run, 0, 3, DXL_INST_PING, 0);
+  /* the framing step alone says what each byte was */
+  dxl_frame_t frame = {0};
+  for (size_t i = 0; i < sizeof protocol2_write_with_a_ping_inside; i++) {
+    assert_int_equal(dxl_frame_step(&frame, protocol2_write_with_a_ping_inside[i]),
+                     i < 3 ? DXL_BYTE_HEADER : DXL_BYTE_PROTOCOL2);
+  }
+  assert_int_equal(frame.state, DXL_FRAME_SEARCH);
 }
 
 /* A 2.0 frame longer than the finder's buffer (LEN 0x0200) is skipped as it comes; one cut by a
@@ -480,7 +482,7 @@ static void test_a_long_or_interrupted_protocol2_frame_is_skipped_and_the_next_p
 
   given_finder(&run, 0);
   ARRIVE(&run, 0xFF, 0xFF, 0xFD, 0x00, 0x05, 0x40, 0x00, 0x03, 0xFF, 0xFF);
-  when_line_idles_until(&run, (uint16_t)(DXL_PACKET_GAP_TIMEOUT_MS + 1u));
+  run.now_ms = DXL_PACKET_GAP_TIMEOUT_MS + 1u;
   ARRIVE(&run, 0xFF, 0xFF, 0x03, 0x02, 0x01, 0xF9);
   assert_int_equal(run.count, 1);
   then_found_packet(&run, 0, 3, DXL_INST_PING, 0);
@@ -494,16 +496,16 @@ int main(void) {
       cmocka_unit_test(test_extra_leading_header_bytes_are_tolerated),
       cmocka_unit_test(test_the_broadcast_id_is_framed),
       cmocka_unit_test(test_the_finder_resyncs_after_garbage),
-      cmocka_unit_test(test_a_packet_starting_inside_a_bad_candidate_is_still_found),
+      cmocka_unit_test(test_a_bad_packet_takes_the_bytes_its_length_counts),
       cmocka_unit_test(test_a_bad_checksum_is_reported_with_the_packet_fields),
       cmocka_unit_test(test_length_below_2_is_not_a_packet),
       cmocka_unit_test(test_a_gap_of_more_than_100ms_discards_a_partial_packet),
       cmocka_unit_test(test_a_gap_of_exactly_100ms_keeps_a_partial_packet),
       cmocka_unit_test(test_the_gap_is_measured_across_the_wrap_of_the_ms_clock),
-      cmocka_unit_test(test_poll_discards_a_partial_packet_while_the_line_is_idle),
-      cmocka_unit_test(test_a_packet_hidden_behind_a_garbage_header_survives_a_gap),
+      cmocka_unit_test(test_a_gap_leaves_the_finder_idle),
+      cmocka_unit_test(test_a_packet_inside_a_garbage_headers_length_is_not_a_packet),
       cmocka_unit_test(test_no_packet_spans_a_gap),
-      cmocka_unit_test(test_an_empty_batch_does_not_restart_the_gap),
+      cmocka_unit_test(test_an_empty_batch_is_no_byte),
       cmocka_unit_test(test_status_packets_of_other_servos_are_framed),
       cmocka_unit_test(test_back_to_back_packets_are_each_found),
       cmocka_unit_test(test_the_longest_packet_length_255_is_found),

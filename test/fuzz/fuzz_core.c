@@ -5,29 +5,32 @@
  * aborts, so libFuzzer saves the input.
  *
  * The harness plays the board around the link, as firmware/app/main.c and the RX interrupt
- * do: bytes into the UART's receive ring (one at a time, or as many as the ring holds before
- * the link's next pass), then main-loop passes (dxl_link_service_reply, dxl_link_service_rx)
- * until the link has nothing left to do; a reply the link starts is on the wire for a time
- * the script gives (control ticks, the link's millisecond ticks and EEPROM writes run
- * meanwhile), then sent; millisecond ticks (dxl_link_tick, the control tick,
- * dxl_link_conditions_changed); the RX interrupt's sniff for a packet it would arm (the
- * fake's sniff started by the link, all but the checksum held in the ring, the reply armed,
- * the checksum at once or some milliseconds late); the EEPROM writer of nvm.c
- * (test/support/eeprom_model.h) stepped by the script, cut at any byte (the byte being
- * written left at any value) and the servo powered up again from what is stored.
+ * do: bytes into the UART's receiver (the fake's, which frames them as the firmware's RX
+ * interrupt does: one at a time, or as many as the ring holds before the link's next pass),
+ * then main-loop passes (dxl_link_service_reply, dxl_link_service_rx) until the link has
+ * nothing left to do; a reply the link starts is on the wire for a time the script gives
+ * (control ticks, the link's millisecond ticks and EEPROM writes run meanwhile), then sent;
+ * millisecond ticks (dxl_link_tick, the control tick, dxl_link_conditions_changed); the RX
+ * interrupt's arming for a packet it would arm (while the link listens: all but the checksum
+ * into the ring, the reply armed, the checksum at once or some milliseconds late); the EEPROM
+ * writer of nvm.c (test/support/eeprom_model.h) stepped by the script, cut at any byte (the
+ * byte being written left at any value) and the servo powered up again from what is stored.
  *
- * It sees each packet as the link hands it to the servo: the linker wraps
- * dxl_servo_prepare and dxl_servo_reject_checksum (-Wl,--wrap, harness/CMakeLists.txt), so
- * the servo is copied as the packet finds it, and dxl_finder_poll, so the reference finder is
- * polled when the link polls its finder; the fake's hooks report the bytes the link takes,
- * the packet handled (and the reply the UART sends for it), every store and every new baud. A packet's checks run once what follows it has run: after its reply has left and
- * dxl_link_service_reply has run, or, without a reply, when the link goes on to another
- * packet or is idle.
+ * It sees each packet as the link hands it to the servo: the linker wraps dxl_servo_prepare
+ * and dxl_servo_reject_checksum (-Wl,--wrap, harness/CMakeLists.txt), so the servo is copied as
+ * the packet finds it; the fake's hooks report the packet handled (and the reply the UART sends
+ * for it), every store and every new baud. A packet's checks run once what follows it has run:
+ * after its reply has left and dxl_link_service_reply has run, or, without a reply, when the
+ * link goes on to another packet or is idle.
  *
  * Invariants (docs/policy.md sections in quotes):
- *   - framing: the reference finder (ref_finder.h), fed the same bytes at the same times and
- *     polled with the link's finder, reports the same packets and bad checksums in the same
- *     order, and nothing more once the link is idle ("Framing and bus");
+ *   - framing, one rule for every reader ("Framing and bus"): every byte the bus carries also
+ *     goes, at the same millisecond, to the reference finder (ref_finder.h: the rule written
+ *     the plain way) and to the core's finder (the framing step, dxl_frame.h); the core's finder
+ *     reports exactly the reference's packets and bad checksums, in order; the link (the fake's
+ *     receiver, then the link's finder) hands the servo the same ones in the same order, less
+ *     packets for other IDs that the receiver passed over while listening, and nothing more
+ *     once it is idle;
  *   - replies: a reply only where "Replies" says one is due (ID, broadcast, Status Return
  *     Level, as the servo was before the packet), a well-formed status packet of the old ID
  *     with a correct checksum, LENGTH 2, or 2 + n for a READ of n bytes, whose data are the
@@ -91,9 +94,9 @@
 
 /* The fake UART's receive ring: 256 slots with 8-bit indices, one always free. */
 #define RING_CAPACITY 255u
-/* The longest packet the RX interrupt's sniff frames and may arm: UART_SNIFF_MAX_LENGTH in
- * firmware/hal/uart.h (docs/firmware.md "Receive"); a longer one is the finder's. */
-#define SNIFF_MAX_LENGTH 96u
+/* The longest LENGTH the RX interrupt may arm: UART_HOLD_MAX_LENGTH in firmware/hal/uart.h
+ * (docs/firmware.md "Receive"); a longer packet is answered from the link. */
+#define ARM_MAX_LENGTH 96u
 /* Main-loop passes one batch of bytes may take before the link is idle: far above what any
  * batch needs (a pass per rejected candidate, one per reply), so a link that keeps asking for
  * passes is caught. */
@@ -173,15 +176,19 @@ typedef struct {
   dxl_response_t response; /* what the servo made of it; bytes: the reply on the wire */
 } handled_t;
 
-/* The RX interrupt's sniff as the harness plays it for one packet. */
+/* The RX interrupt's arming as the harness plays it for one packet. */
 typedef enum {
-  SNIFF_IDLE,    /* not armed: every packet reaches the link through the finder */
-  SNIFF_ARMED,   /* armed at the packet's last byte but one; its checksum is still to come */
-  SNIFF_MATCHED, /* its checksum came, matched, and started the armed reply */
-} sniff_play_t;
+  ARM_NONE,    /* not armed: every packet is answered from the link */
+  ARM_ARMED,   /* armed at the packet's last byte but one; its checksum is still to come */
+  ARM_MATCHED, /* its checksum came, matched, and started the armed reply */
+} arm_play_t;
 
 typedef struct {
-  ref_finder_t ref;
+  ref_finder_t ref;     /* compared with the packets the link hands the servo */
+  ref_finder_t ref_raw; /* compared with raw's */
+  dxl_finder_t raw;     /* the core's finder on every byte the bus carries */
+  bool raw_any_byte;
+  uint16_t raw_last_byte_ms;
   dxl_servo_t servo;
   dxl_link_t link;
   fake_uart_t uart; /* now_us: the clock */
@@ -195,6 +202,7 @@ typedef struct {
   uint8_t stored[CT_EEPROM_SIZE];
   bool have_prior;
   uint8_t prior[CT_EEPROM_SIZE];
+  bool may_find_none; /* that cut write was the first store's: no slot may be valid */
   bool have_under_way;
   uint8_t under_way[CT_EEPROM_SIZE];
   bool have_latest;
@@ -207,13 +215,13 @@ typedef struct {
   unsigned reply_ms; /* how long a reply takes on the wire (PACKET mode bit 5), 0: no time */
   before_t before;
   handled_t handled;
-  sniff_play_t sniff;
-  const dxl_packet_t *sniffed; /* the packet the sniff armed, as sent */
+  arm_play_t arm;
+  const dxl_packet_t *armed; /* the packet armed, as sent */
 } world_t;
 
 static world_t world;
 
-static uint16_t now_ms(world_t *w) { return dxl_link_port_now_ms(&w->uart); }
+static uint16_t now_ms(world_t *w) { return (uint16_t)(w->uart.now_us / 1000u); }
 
 static void pass_ms(world_t *w, uint32_t ms) { w->uart.now_us += (uint64_t)ms * 1000u; }
 
@@ -637,8 +645,10 @@ static bool service_store(world_t *w, const uint8_t *torn) {
   }
   const bool wrote = eeprom_model_service(&w->eeprom, torn);
   w->have_prior = false;
+  w->may_find_none = false;
   if (w->have_under_way && w->eeprom.steps_left == 0) { /* its sequence number is in */
     w->have_prior = torn != NULL && w->have_stored; /* unless that write was cut */
+    w->may_find_none = torn != NULL && !w->have_stored;
     memcpy(w->prior, w->stored, CT_EEPROM_SIZE);
     memcpy(w->stored, w->under_way, CT_EEPROM_SIZE);
     w->have_stored = true;
@@ -733,38 +743,78 @@ static void on_baud(void *context, uint8_t baud_register) {
   w->baud_sets++;
 }
 
-/* The bytes the link moves from the ring into its finder reach the reference finder at the
- * same moment, after a poll (dxl_finder_push_slot polls the gap first, an empty batch too). */
-static void on_take(void *context, const uint8_t *bytes, uint8_t count) {
-  world_t *w = context;
+/* ---------------------------------------------------------------------------------------
+ * Framing: every reader of the bus against the reference
+ * --------------------------------------------------------------------------------------- */
+
+static bool same_as_reference(dxl_find_result_t found, const dxl_packet_t *p, const ref_packet_t *ref) {
+  return found == ref->result && p->id == ref->id && p->instruction == ref->instruction &&
+         p->param_count == ref->param_count && p->checksum == ref->checksum &&
+         memcmp(p->params, ref->params, p->param_count) == 0;
+}
+
+/* One byte on the bus at now, to the references and the core's finder (gap first, as a reader
+ * with a millisecond clock measures it); the caller gives it to the fake's receiver. */
+static void readers_byte(world_t *w, uint8_t byte) {
   const uint16_t ms = now_ms(w);
-  ref_finder_poll(&w->ref, ms);
-  for (uint8_t i = 0; i < count; i++) {
-    if (!ref_finder_push(&w->ref, bytes[i], ms)) {
-      fail("the reference finder is full");
-    }
+  if (!ref_finder_push(&w->ref, byte, ms) || !ref_finder_push(&w->ref_raw, byte, ms)) {
+    fail("the reference finder is full");
+  }
+  if (w->raw_any_byte && dxl_frame_gap(w->raw_last_byte_ms, ms)) {
+    dxl_finder_gap(&w->raw);
+  }
+  w->raw_any_byte = true;
+  w->raw_last_byte_ms = ms;
+  dxl_packet_t packet;
+  const dxl_find_result_t found = dxl_finder_push(&w->raw, byte, &packet);
+  ref_packet_t ref;
+  const dxl_find_result_t expected = ref_finder_next(&w->ref_raw, &ref);
+  if (found != expected || (found != DXL_FIND_NONE && !same_as_reference(found, &packet, &ref))) {
+    fail("the core's finder says %d (ID %u, %u parameters), the reference %d (ID %u, %u parameters)", found,
+         found != DXL_FIND_NONE ? packet.id : 0u, found != DXL_FIND_NONE ? packet.param_count : 0u, expected,
+         ref.id, ref.param_count);
   }
 }
 
-/* ---------------------------------------------------------------------------------------
- * The link's packets, seen as it hands them to the servo
- * --------------------------------------------------------------------------------------- */
+/* One byte on the bus: to every reader, the fake's receiver included. */
+static void bus_byte(world_t *w, uint8_t byte) {
+  readers_byte(w, byte);
+  if (!fake_uart_receive(&w->uart, byte)) {
+    fail("a byte found the receive ring full"); /* the batches leave room (receive) */
+  }
+}
 
+/* The millisecond tick of every reader: the link's (its receiver's gap rule), the references'
+ * and the core finder's gap. */
+static void readers_tick(world_t *w) {
+  const uint16_t ms = now_ms(w);
+  dxl_link_tick(&w->link);
+  ref_finder_poll(&w->ref, ms);
+  ref_finder_poll(&w->ref_raw, ms);
+  if (w->raw_any_byte && dxl_frame_gap(w->raw_last_byte_ms, ms)) {
+    dxl_finder_gap(&w->raw);
+  }
+}
+
+/* A packet the link hands the servo (found != NONE), or none more once it is idle: the
+ * reference's next ones, less packets for other IDs the receiver passed over while listening. */
 static void compare_with_reference(world_t *w, dxl_find_result_t found, const dxl_packet_t *p) {
   ref_packet_t ref;
-  const dxl_find_result_t expected = ref_finder_next(&w->ref, &ref);
-  if (found != expected) {
-    fail("the finder says %d, the reference finder %d (reference: ID %u instruction 0x%02X, %u parameters)", found,
-         expected, ref.id, ref.instruction, ref.param_count);
-  }
-  if (found == DXL_FIND_NONE) {
-    return;
-  }
-  if (p->id != ref.id || p->instruction != ref.instruction || p->param_count != ref.param_count ||
-      p->checksum != ref.checksum || memcmp(p->params, ref.params, p->param_count) != 0) {
-    fail("the finder's packet (ID %u instruction 0x%02X, %u parameters) is not the reference finder's (ID %u "
-         "instruction 0x%02X, %u parameters)",
-         p->id, p->instruction, p->param_count, ref.id, ref.instruction, ref.param_count);
+  for (;;) {
+    const dxl_find_result_t expected = ref_finder_next(&w->ref, &ref);
+    if (found != DXL_FIND_NONE && expected != DXL_FIND_NONE && same_as_reference(found, p, &ref)) {
+      return;
+    }
+    if (found == DXL_FIND_NONE && expected == DXL_FIND_NONE) {
+      return;
+    }
+    const bool passed_over = expected != DXL_FIND_NONE && ref.id != DXL_ID_BROADCAST && ref.id != w->uart.listen_id;
+    if (!passed_over) {
+      fail("the link hands the servo %d (ID %u instruction 0x%02X, %u parameters), the reference finder has %d (ID %u "
+           "instruction 0x%02X, %u parameters)",
+           found, found != DXL_FIND_NONE ? p->id : 0u, found != DXL_FIND_NONE ? p->instruction : 0u,
+           found != DXL_FIND_NONE ? p->param_count : 0u, expected, ref.id, ref.instruction, ref.param_count);
+    }
   }
 }
 
@@ -820,9 +870,9 @@ static void packet_begins(world_t *w, const dxl_servo_t *servo) {
 }
 
 /* The armed path's prepare, while the checksum is still on the wire: the finder's candidate is
- * the packet the sniff armed, and its reply can be streamed (dxl_servo.h "Streamed replies"). */
+ * the packet armed, and its reply can be streamed (dxl_servo.h "Streamed replies"). */
 static void check_armed_prepare(const world_t *w, const dxl_packet_t *candidate, const dxl_response_t *r) {
-  if (!same_packet(candidate, w->sniffed)) {
+  if (!same_packet(candidate, w->armed)) {
     fail("the candidate before the checksum (ID %u instruction 0x%02X, %u parameters) is not the packet on the wire",
          candidate->id, candidate->instruction, candidate->param_count);
   }
@@ -834,20 +884,18 @@ static void check_armed_prepare(const world_t *w, const dxl_packet_t *candidate,
 }
 
 /* The core's functions the link calls, wrapped by the linker (-Wl,--wrap): the servo's two
- * entry points for a packet (the wrapper sees the servo before the packet) and the finder's
- * gap poll (the reference finder is polled with it); each then calls the core's own. */
+ * entry points for a packet (the wrapper sees the servo before the packet); each then calls the
+ * core's own. */
 void __real_dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response);
 void __real_dxl_servo_reject_checksum(dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response);
-bool __real_dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms);
 void __wrap_dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response);
 void __wrap_dxl_servo_reject_checksum(dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response);
-bool __wrap_dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms);
 
 void __wrap_dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response) {
   world_t *w = &world;
   packet_begins(w, servo);
   __real_dxl_servo_prepare(servo, packet, response);
-  if (w->sniff == SNIFF_ARMED && w->uart.reply_state == DXL_LINK_REPLY_ARMED) {
+  if (w->arm == ARM_ARMED && w->uart.reply_state == DXL_LINK_REPLY_ARMED) {
     check_armed_prepare(w, packet, response);
   }
 }
@@ -855,11 +903,6 @@ void __wrap_dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *pack
 void __wrap_dxl_servo_reject_checksum(dxl_servo_t *servo, const dxl_packet_t *packet, dxl_response_t *response) {
   packet_begins(&world, servo);
   __real_dxl_servo_reject_checksum(servo, packet, response);
-}
-
-bool __wrap_dxl_finder_poll(dxl_finder_t *finder, uint16_t now_ms) {
-  ref_finder_poll(&world.ref, now_ms);
-  return __real_dxl_finder_poll(finder, now_ms);
 }
 
 /* The reply the UART sends (or not) is the servo's. */
@@ -904,12 +947,12 @@ static void check_bad_checksum(world_t *w, const before_t *b, const dxl_packet_t
   }
 }
 
-/* The armed packet, complete: the one the sniff armed; what the link committed (prepared from
+/* The armed packet, complete: the one armed; what the link committed (prepared from
  * the candidate) is what the complete packet gives, and so is the ready reply a PING gets. */
 static void check_armed_packet(const world_t *w, const dxl_packet_t *p, const dxl_response_t *committed,
                                dxl_response_t *complete) {
-  if (!same_packet(p, w->sniffed)) {
-    fail("the sniff's packet is not the finder's");
+  if (!same_packet(p, w->armed)) {
+    fail("the armed packet is not the finder's");
   }
   __real_dxl_servo_prepare(&w->handled.before.servo, p, complete);
   const dxl_response_t *r = complete;
@@ -930,7 +973,7 @@ static void on_handled(void *context, dxl_find_result_t found, const uint8_t *by
                        const dxl_response_t *response) {
   world_t *w = context;
   handled_t *h = &w->handled;
-  const bool armed = w->sniff == SNIFF_MATCHED && found == DXL_FIND_PACKET;
+  const bool armed = w->arm == ARM_MATCHED && found == DXL_FIND_PACKET;
   if (!w->before.valid) {
     /* Only a PING answered with the ready reply is handled without the servo: nothing to
      * prepare nor commit. */
@@ -940,7 +983,7 @@ static void on_handled(void *context, dxl_find_result_t found, const uint8_t *by
     packet_begins(w, &w->servo);
   }
   w->before.valid = false;
-  w->sniff = SNIFF_IDLE;
+  w->arm = ARM_NONE;
   h->before = w->before;
   frame(bytes, length, &h->framed);
   const dxl_packet_t *p = &h->framed.packet;
@@ -984,8 +1027,8 @@ static void on_handled(void *context, dxl_find_result_t found, const uint8_t *by
 
 static void millisecond(world_t *w);
 
-/* The link's millisecond tick (the reference finder is polled when it polls its finder). */
-static void link_tick(world_t *w) { dxl_link_tick(&w->link, &w->servo, now_ms(w)); }
+/* The link's millisecond tick, with every other reader's. */
+static void link_tick(world_t *w) { readers_tick(w); }
 
 /* The reply the link started is on the wire for reply_ms, the main loop's ticks and the
  * EEPROM writer running meanwhile; then its last stop bit has left. */
@@ -1007,7 +1050,6 @@ static void run(world_t *w) {
     if (pass == MAX_PASSES) {
       fail("the link still asks for passes after %u", MAX_PASSES);
     }
-    w->uart.woken = false;
     w->uart.log[0] = '\0'; /* the fake's event log is not read here */
     const bool reply_sent = w->uart.reply_state == DXL_LINK_REPLY_DONE;
     dxl_link_service_reply(&w->link, &w->servo);
@@ -1017,10 +1059,10 @@ static void run(world_t *w) {
       }
       finish_handled(w);
     }
-    dxl_link_service_rx(&w->link, &w->servo);
+    const bool more = dxl_link_service_rx(&w->link, &w->servo);
     if (w->uart.reply_state == DXL_LINK_REPLY_SENDING) {
       send_reply(w);
-    } else if (!w->uart.woken) {
+    } else if (!more) {
       break;
     }
   }
@@ -1035,20 +1077,20 @@ static void run(world_t *w) {
 }
 
 /* Bytes arrive at the UART: as many as the ring holds before the link's next passes (one
- * batch for the finder), the rest after them. */
+ * batch for the finder), the rest after them. The ring takes a kept packet's header at its
+ * LENGTH, bytes that may have come in the batch before: room is kept for them. */
 static void receive(world_t *w, const uint8_t *bytes, size_t count) {
   size_t done = 0;
   do {
-    const size_t room = RING_CAPACITY - (uint8_t)(w->uart.head - w->uart.tail);
+    const size_t room = RING_CAPACITY - DXL_PACKET_HEADER_BYTES - (uint8_t)(w->uart.head - w->uart.tail);
     const size_t n = count - done < room ? count - done : room;
     for (size_t i = 0; i < n; i++) {
-      (void)fake_uart_receive(&w->uart, bytes[done + i]);
+      bus_byte(w, bytes[done + i]);
     }
     done += n;
     run(w);
   } while (done < count);
 }
-
 
 /* One control tick. Only the Present items and Moving may change, and Torque Enable (and in
  * profile ax12a Torque Limit) only to 0: every other address is compared, so the ranges hold
@@ -1130,7 +1172,7 @@ static void millisecond(world_t *w) {
 static void power_up(world_t *w) {
   const uint8_t *stored = eeprom_model_boot(&w->eeprom);
   if (stored == NULL) {
-    if (w->have_stored) {
+    if (w->have_stored && !w->may_find_none) {
       fail("power-up found no valid settings, but settings were stored");
     }
   } else {
@@ -1144,6 +1186,7 @@ static void power_up(world_t *w) {
   }
   w->have_stored = stored != NULL;
   w->have_prior = false;
+  w->may_find_none = false;
   w->have_under_way = false;
   w->have_latest = false;
   dxl_servo_power_up(&w->servo, stored, w->sensors.position_counts);
@@ -1154,16 +1197,18 @@ static void power_up(world_t *w) {
   const uint64_t now_us = w->uart.now_us;
   fake_uart_init(&w->uart, w->servo.table[CT_ADDR_BAUD_RATE]);
   w->uart.now_us = now_us;
-  w->uart.on_take = on_take;
   w->uart.on_store = on_store;
   w->uart.on_baud = on_baud;
   w->uart.on_handled = on_handled;
   w->uart.context = w;
   ref_finder_init(&w->ref);
+  ref_finder_init(&w->ref_raw);
+  dxl_finder_init(&w->raw);
+  w->raw_any_byte = false;
   dxl_control_init(&w->control);
   w->before.valid = false;
   w->handled.open = false;
-  w->sniff = SNIFF_IDLE;
+  w->arm = ARM_NONE;
   dxl_link_init(&w->link, &w->servo, &w->uart);
   check_ranges(w->servo.table, "after power-up");
   check_angle_condition(w, "after power-up");
@@ -1244,11 +1289,12 @@ static void start(world_t *w, input_t *in) {
  * Operations
  * --------------------------------------------------------------------------------------- */
 
-/* Whether the RX interrupt's sniff arms this packet's reply once it runs (firmware/hal/uart_rx.S,
- * docs/firmware.md "Receive"): this servo's ID, an instruction of dxl_servo_stream_mask(), a
- * WRITE from past the EEPROM area's ID and Baud Rate, LENGTH up to SNIFF_MAX_LENGTH. */
-static bool sniff_would_arm(const world_t *w, const dxl_packet_t *p) {
-  if (p->id != w->servo.table[CT_ADDR_ID] || p->instruction >= 8u || p->param_count + 2u > SNIFF_MAX_LENGTH) {
+/* Whether the RX interrupt arms this packet's reply while the link listens
+ * (firmware/hal/uart_rx_fast.S, docs/firmware.md "Receive"): this servo's ID, an instruction of
+ * dxl_servo_stream_mask(), a WRITE from past the EEPROM area's ID and Baud Rate, LENGTH up to
+ * ARM_MAX_LENGTH. */
+static bool would_arm(const world_t *w, const dxl_packet_t *p) {
+  if (p->id != w->servo.table[CT_ADDR_ID] || p->instruction >= 8u || p->param_count + 2u > ARM_MAX_LENGTH) {
     return false;
   }
   if ((dxl_servo_stream_mask(&w->servo) & (1u << p->instruction)) == 0) {
@@ -1257,27 +1303,25 @@ static bool sniff_would_arm(const world_t *w, const dxl_packet_t *p) {
   return !(p->instruction == DXL_INST_WRITE && p->param_count >= 1 && p->params[0] < DXL_STREAM_WRITE_MIN_ADDR);
 }
 
-/* The RX interrupt's sniff for a packet it arms (fake_uart.h: the caller plays it). The link,
- * idle, starts the sniff (else the finder holds bytes, the sniff does not run, and the packet
- * arrives as a batch); the sniff holds the bytes up to the checksum in the ring and arms the
+/* The RX interrupt's arming for a packet it arms (fake_uart.h: the caller plays it). The link,
+ * idle, listens, and the receiver is between packets (else the packet arrives as a batch: the
+ * link is busy, or what came before it makes the receiver frame its bytes otherwise); the receiver puts the bytes up to the checksum into the ring and arms the
  * reply at the last of them; the link takes the packet over, prepares the reply and publishes
  * it. The checksum comes late_ms later, the link's millisecond ticks and passes running
- * meanwhile (a link gives the armed reply up after DXL_LINK_SNIFF_MAX_MS without a byte), and
- * starts the reply if it matches and the reply is still armed. */
+ * meanwhile (after more than the 100 ms gap the receiver drops the packet and the reply with
+ * it), and starts the reply if it matches and the reply is still armed. */
 static void deliver_armed(world_t *w, const uint8_t *bytes, size_t count, const dxl_packet_t *sent, bool matches,
                           unsigned late_ms) {
-  w->uart.sniff_enabled = true;
   run(w);
-  w->uart.sniff_enabled = false; /* played for this packet only */
-  if (w->uart.sniff != DXL_LINK_SNIFF_WAITING) {
-    receive(w, bytes, count);
+  if (!w->uart.listening || w->uart.frame.state != DXL_FRAME_SEARCH || w->uart.skip != 0) {
+    receive(w, bytes, count); /* busy, or the bytes before it leave the receiver inside a packet */
     return;
   }
   for (size_t i = 0; i + 1u < count; i++) {
-    (void)fake_uart_receive(&w->uart, bytes[i]);
+    bus_byte(w, bytes[i]);
   }
-  w->sniff = SNIFF_ARMED;
-  w->sniffed = sent;
+  w->arm = ARM_ARMED;
+  w->armed = sent;
   w->before.valid = false;
   fake_uart_arm(&w->uart, sent->instruction == DXL_INST_PING && sent->param_count == 0);
   run(w);
@@ -1290,10 +1334,11 @@ static void deliver_armed(world_t *w, const uint8_t *bytes, size_t count, const 
     link_tick(w);
     run(w);
   }
-  w->sniff = matches && w->uart.reply_state == DXL_LINK_REPLY_ARMED ? SNIFF_MATCHED : SNIFF_IDLE;
+  w->arm = matches && w->uart.reply_state == DXL_LINK_REPLY_ARMED ? ARM_MATCHED : ARM_NONE;
+  readers_byte(w, bytes[count - 1u]);
   fake_uart_checksum(&w->uart, bytes[count - 1u], matches);
   run(w);
-  w->sniff = SNIFF_IDLE;
+  w->arm = ARM_NONE;
 }
 
 static void op_packet(world_t *w, input_t *in) {
@@ -1401,7 +1446,7 @@ static void op_packet(world_t *w, input_t *in) {
   default: { /* FUZZ_DELIVER_EARLY */
     const unsigned late_ms = (mode & FUZZ_MODE_LATE_CHECKSUM) ? take(in) : 0u;
     const dxl_packet_t sent = {id, instruction, (uint8_t)n, params, checksum};
-    if (sniff_would_arm(w, &sent)) {
+    if (would_arm(w, &sent)) {
       deliver_armed(w, bytes, count, &sent, (mode & FUZZ_MODE_BAD_CHECKSUM) == 0, late_ms);
     } else {
       receive(w, bytes, count);
@@ -1427,10 +1472,10 @@ static void op_ticks(world_t *w, input_t *in) {
     position = position < 0 ? 0 : position > (int)PRESENT_POSITION_MAX ? (int)PRESENT_POSITION_MAX : position;
     w->sensors.position_counts = (uint16_t)position;
     millisecond(w);
-    /* Passes when the tick's gap poll gave the finder bytes to rescan: otherwise the link is
-     * idle (the ring empty, no reply under way), a pass changes nothing, and ticks come by
+    /* Passes when the tick's gap ended a packet the link holds part of: otherwise the link
+     * is idle (the ring empty, no reply under way), a pass changes nothing, and ticks come by
      * the thousand. */
-    if (w->link.finder_dirty) {
+    if (w->uart.gap_cut) {
       run(w);
     }
   }

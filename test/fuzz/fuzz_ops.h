@@ -34,7 +34,7 @@
  *                                       0..1023
  *   PACKET       sel, mode, ...         a packet built from the input (see below), delivered
  *                                       by bytes, in one batch, split by a wait, or through the
- *                                       RX interrupt's sniff and the link's armed path
+ *                                       RX interrupt's arming and the link's armed path
  *   EEPROM       n                      n + 1 writes of the EEPROM writer (nvm_service)
  *   EEPROM_FLUSH -                      the store runs to its end
  *   CUT          how, garbage, pos16    power cut: how & 1: in the middle of a byte's write
@@ -54,13 +54,13 @@
  *   others      none
  * mode: bits 0-1 delivery (0 bytes, 1 one batch, 2 two batches with a wait of the next byte
  * in ms and one link tick between, at the split given by the byte after it, the second taken
- * by passes before that tick, 3 the sniff: a packet the RX interrupt would arm, while the link
- * is idle, goes through the armed path, any other in one batch); bit 2 bad checksum (xor with
+ * by passes before that tick, 3 armed: a packet the RX interrupt would arm, while the link
+ * listens, goes through the armed path, any other in one batch); bit 2 bad checksum (xor with
  * the next byte | 1); bits 3-4 extra leading 0xFF bytes; bit 5 replies take time: the next
  * byte is how many ms pass between a reply's start and its end (ticks and EEPROM writes run,
  * what follows the reply waits); bit 6, with delivery 3: the checksum comes the next byte in
- * ms late, with the link's tick and passes every ms (the link gives the armed reply up after
- * 3 ms). A PACKET's bytes in order: sel, mode, the ID (id GIVEN), the instruction (GIVEN), the
+ * ms late, with the link's tick and passes every ms (after more than the 100 ms gap the receiver
+ * drops the packet and the armed reply). A PACKET's bytes in order: sel, mode, the ID (id GIVEN), the instruction (GIVEN), the
  * parameters, the checksum xor (bit 2), the reply time (bit 5), the split's wait and place
  * (delivery 2), the checksum's delay (bit 6, delivery 3). */
 #ifndef FUZZ_OPS_H

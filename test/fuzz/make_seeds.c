@@ -229,10 +229,9 @@ int main(int argc, char **argv) {
   b(FUZZ_OP_PASS);
   wait(60);
   bytes(2, FUZZ_OP_PUSH_BYTE, 0xFB);
-  /* armed PINGs whose checksum is late, the link's armed path pushing empty batches until it
-   * gives the reply up at 3 ms: 2 ms (still armed), 50 ms (the finder completes the packet),
-   * 100 and 101 ms (the gap, counted from the last byte, not from an empty batch, ends it
-   * only at 101) */
+  /* armed PINGs whose checksum is late, the link taking empty batches meanwhile: 2, 50 and
+   * 100 ms (still armed: the checksum starts the reply), 101 ms (the gap, counted from the last
+   * byte, not from an empty batch, ends the packet and the armed reply) */
   bytes(4, FUZZ_OP_PACKET, FUZZ_SEL(OWN, FUZZ_INST_PING), EARLY | FUZZ_MODE_LATE_CHECKSUM, 2);
   bytes(4, FUZZ_OP_PACKET, FUZZ_SEL(OWN, FUZZ_INST_PING), EARLY | FUZZ_MODE_LATE_CHECKSUM, 50);
   bytes(4, FUZZ_OP_PACKET, FUZZ_SEL(OWN, FUZZ_INST_PING), EARLY | FUZZ_MODE_LATE_CHECKSUM, 100);
@@ -378,11 +377,11 @@ int main(int argc, char **argv) {
   save("early_extra_ff");
 
   start_one(1);
-  /* a gap crossed by bytes that come before the tick of its millisecond, and the rescan of the
-   * bytes before it held up by a reply longer than the gap: another servo's packet (LENGTH 16)
-   * holds a PING of this servo and a WRITE of LED 1 whose first 5 bytes come before the gap;
-   * the PING's reply takes 150 ms. The WRITE's halves are not one packet (docs/policy.md
-   * "Framing and bus") */
+  /* a gap crossed by bytes that come before the tick of its millisecond, with a reply on the
+   * wire for longer than the gap: another servo's packet (LENGTH 16) takes in a PING of this
+   * servo and the first 5 bytes of a WRITE of LED 1, and the gap ends it; the rest of the WRITE
+   * after the gap is no packet (docs/policy.md "Framing and bus"); then a PING whose reply
+   * takes 150 ms */
   bytes(5, FUZZ_OP_PACKET, FUZZ_SEL(FUZZ_ID_NEIGHBOUR, FUZZ_INST_GIVEN) | FUZZ_SEL_RAW_PARAMS,
         FUZZ_DELIVER_SPLIT | FUZZ_MODE_REPLY_TIME, 0x00, 14);
   bytes(14, 0xFF, 0xFF, 0x01, 0x02, 0x01, 0xFB, 0xFF, 0xFF, 0x01, 0x04, 0x03, 0x19, 0x01, 0xDD);

@@ -42,7 +42,10 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
 }
 
 #if DXL_HAS_BOOTLOADER
-void dxl_after_port_enter_bootloader(void *port) { log_event(port, "bootloader "); }
+void dxl_after_port_enter_bootloader(void *port, const uint8_t *table) {
+  (void)table;
+  log_event(port, "bootloader ");
+}
 #endif
 
 /* A packet to servo 1 handled as the main loop does (firmware/app/main.c on_packet,
