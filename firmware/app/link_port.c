@@ -145,15 +145,14 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
 }
 
 #if DXL_HAS_BOOTLOADER
-/* The settings' store finishes first (a few bytes of 3.4 ms each), so the bootloader finds
- * them whole; the motor coasts. */
+/* Only with no store of the settings under way (a few bytes of 3.4 ms each), so that the
+ * bootloader finds them whole and none is cut; otherwise the application stays, and the
+ * flasher asks again (docs/bootloader.md "Entering from the application"). The bootloader
+ * stops the motor. */
 void dxl_after_port_enter_bootloader(void *port) {
   (void)port;
-  while (nvm_busy()) {
-    board_watchdog_kick();
-    nvm_service();
+  if (!nvm_busy()) {
+    boot_request_enter();
   }
-  motor_set_drive(0);
-  boot_request_enter();
 }
 #endif

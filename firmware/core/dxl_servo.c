@@ -36,6 +36,13 @@
 #define BROADCAST_ANSWERED(instruction) (BROADCAST_PING_ANSWERED && (instruction) == DXL_INST_PING)
 #endif
 
+#if DXL_HAS_BOOTLOADER
+/* The four bytes at bytes as one little-endian number (one 32-bit compare of the key). */
+static uint32_t little_endian_u32(const uint8_t *bytes) {
+  return (uint32_t)bytes[0] | (uint32_t)bytes[1] << 8 | (uint32_t)bytes[2] << 16 | (uint32_t)bytes[3] << 24;
+}
+#endif
+
 static uint8_t min_status_level(uint8_t instruction) {
   switch (instruction) {
   case DXL_INST_PING:
@@ -236,13 +243,13 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
     return plan_checked_write(s, r, DXL_ACTION_RUN_REGISTERED, s->reg_start, s->reg_data, s->reg_len);
 #if DXL_HAS_BOOTLOADER
   case DXL_INST_BOOTLOADER:
-    if (broadcast || count != 4u || params[0] != DXL_BOOTLOADER_KEY_0 || params[1] != DXL_BOOTLOADER_KEY_1 ||
-        params[2] != DXL_BOOTLOADER_KEY_2 || params[3] != DXL_BOOTLOADER_KEY_3) {
+    if (broadcast || count != 4u || little_endian_u32(params) != DXL_BOOTLOADER_KEY) {
       break;
     }
     r->after |= DXL_AFTER_BOOTLOADER;
     return 0;
 #endif
+#ifndef AX12_TEST_WITHOUT_SYNC_WRITE_AND_RESET /* test builds only (firmware/CMakeLists.txt) */
   case DXL_INST_RESET:
     if (count != 0) {
       break;
@@ -252,6 +259,8 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
     }
     r->action = DXL_ACTION_RESET;
     return 0;
+#endif
+#ifndef AX12_TEST_WITHOUT_SYNC_WRITE_AND_RESET
   case DXL_INST_SYNC_WRITE: {
     if (count < 2) {
       break;
@@ -288,6 +297,7 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
     }
     return plan_checked_write(s, r, DXL_ACTION_WRITE, start, own + 1, slice_data_len);
   }
+#endif
   default:
     break;
   }
@@ -344,9 +354,11 @@ void dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl
     data = r->window_data;
     r->after = after_flags_of_write(start, len);
     break;
+#ifndef AX12_TEST_WITHOUT_SYNC_WRITE_AND_RESET
   case DXL_ACTION_RESET:
     r->after = DXL_AFTER_FACTORY_RESET | DXL_AFTER_APPLY_BAUD | DXL_AFTER_PERSIST;
     break;
+#endif
   default:
     break;
   }

@@ -111,7 +111,7 @@ bool servo_listening(const servo_t *servo) {
 }
 
 /* By then a bootloader that has not started the application stays in it: its '#' window
- * (30 ms) and its check of the largest application (30 KB at about 42 cycles a byte, 80 ms),
+ * (32.8 ms) and its check of the largest application (32 KB at about 9 cycles a byte, 18 ms),
  * with a margin. */
 #define BOOT_WINDOW_DONE_MS 150u
 
