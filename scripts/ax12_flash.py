@@ -26,6 +26,7 @@ sys.path.insert(0, os.path.join(REPO, "python"))
 EXIT_DONE, EXIT_SERVO, EXIT_BAD_INPUT = 0, 1, 2
 ANSWER_TIMEOUT_S = 0.3      # per request; the bootloader answers at once, the pty may hold bytes
 ENTER_TIMEOUT_S = 1.5       # from the application's answer to BOOT to the bootloader's to INFO
+BOOT_AGAIN_S = 0.1          # BOOT again while the application still answers (a store was under way)
 START_TIMEOUT_S = 2.0       # from GO to the application's answer to PING
 
 
@@ -115,15 +116,20 @@ def enter_bootloader(client, baud, boot):
         raise boot.BootError(f"servo {client.ident} answers INFO with error 0x{answer.code:02X} and "
                              f"{len(answer.params)} parameters: neither an application nor the bootloader")
     say(f"servo {client.ident} runs its application: asking it into the bootloader")
-    reply = client.request_bootloader()
-    if reply is not None and reply.code & boot.ERR_INSTRUCTION:
-        raise boot.BootError(f"servo {client.ident}'s application does not know instruction 0x0A \"BOOT\": "
-                             f"it has no bootloader to enter (flash it over ISP: scripts/ax12 flash-isp)")
     deadline = time.monotonic() + ENTER_TIMEOUT_S
     while time.monotonic() < deadline:
-        info = boot.parse_info(client.info())
-        if info:
-            return info
+        reply = client.request_bootloader()
+        if reply is not None and reply.code & boot.ERR_INSTRUCTION:
+            raise boot.BootError(f"servo {client.ident}'s application does not know instruction 0x0A \"BOOT\": "
+                                 f"it has no bootloader to enter (flash it over ISP: scripts/ax12 flash-isp)")
+        asked = time.monotonic()
+        while time.monotonic() - asked < BOOT_AGAIN_S:
+            answer = client.info()
+            info = boot.parse_info(answer)
+            if info:
+                return info
+            if answer is not None and answer.code & boot.ERR_INSTRUCTION:
+                break  # the application still runs: it stores its settings first; asked again
     raise boot.BootError(f"servo {client.ident} did not answer as a bootloader within {ENTER_TIMEOUT_S:g} s "
                          f"of the request to enter it")
 

@@ -21,7 +21,7 @@ ax12_build.ensure(os.path.join(REPO, "build"))
 
 import ax12_app_image  # noqa: E402
 import ax12_flash  # noqa: E402
-from fake_boot_servo import BEGIN, BOOT, END, GO, INFO, PAGE, PING, READ, FakeBootServo  # noqa: E402
+from fake_boot_servo import BOOT, GO, INFO, PAGE, PING, READ, FakeBootServo  # noqa: E402
 
 FIRMWARE_DIR = os.environ.get("AX12_FIRMWARE_DIR") or os.path.join(REPO, "build", "firmware")
 HEX_328P = os.path.join(FIRMWARE_DIR, "ax12-ax12a-atmega328p.hex")
@@ -52,9 +52,12 @@ def instructions(servo):
 
 def assert_written(servo, hex_path=HEX_328P):
     image = ax12_app_image.load(hex_path)
-    assert bytes(servo.flash[:len(image.data)]) == image.data
+    assert bytes(servo.flash) == image.flash_bytes(servo.mcu)
     assert servo._record_valid()
-    assert bytes(servo.flash[0x7780:0x7800]) == image.record_page(128)
+
+
+def page_addresses(servo):
+    return [int.from_bytes(params[:2], "little") for (i, params) in servo.requests if i == PAGE]
 
 
 def test_a_servo_in_its_bootloader_is_written_verified_and_started(capsys):
@@ -64,18 +67,35 @@ def test_a_servo_in_its_bootloader_is_written_verified_and_started(capsys):
     assert code == 0, err
     assert opened == [("/dev/fake", 1000000)]
     assert_written(servo)
-    pages = len(ax12_app_image.load(HEX_328P).pages(128))
+    image_pages = -(-len(ax12_app_image.load(HEX_328P).data) // 128)
     sent = instructions(servo)
-    assert sent[:2] == [INFO, BEGIN]
-    assert sent[2:2 + pages] == [PAGE] * pages
-    assert sent[2 + pages] == END
-    assert sent[3 + pages:3 + 2 * pages + 1] == [READ] * (pages + 1), "every page and the record read back"
-    assert sent[3 + 2 * pages + 1] == GO
-    assert [address for (i, params) in servo.requests if i == PAGE
-            for address in [int.from_bytes(params[:2], "little")]] == [128 * n for n in range(pages)]
+    assert sent[0] == INFO
+    assert sent[1:1 + image_pages + 2] == [PAGE] * (image_pages + 2)
+    # The record's page first (its record erased) and last (with it), the image between.
+    assert page_addresses(servo) == [0x7D80] + [128 * n for n in range(image_pages)] + [0x7D80]
+    go = sent.index(GO)
+    assert sent[1 + image_pages + 2:go] == [READ] * (image_pages + 1), "every page written read back"
+    assert sent[go + 1:] == [PING, 0x02], "the application's PING and READ of its identity"
     assert servo.mode == "app" and servo.closed
     assert "written" in out and "verified" in out and "Model Number 12, Firmware Version 1" in out
-    assert "bootloader 1 on an atmega328p" in err and "application not valid" in err
+    assert "bootloader 2 on an atmega328p" in err and "application area 0x0000-0x7DFF" in err
+
+
+def test_the_record_is_erased_by_the_first_write_and_written_by_the_last(capsys):
+    servo = FakeBootServo()
+    seen = []
+    answer = servo._answer_as_bootloader
+
+    def watch(instruction, params):
+        answer(instruction, params)
+        if instruction == PAGE:
+            seen.append(servo._record_valid())
+    servo._answer_as_bootloader = watch
+    servo.flash[:] = ax12_app_image.load(HEX_328P).flash_bytes("atmega328p")  # valid before
+    assert servo._record_valid()
+    code, _ = flash(servo, "--no-verify")
+    assert code == 0, capsys.readouterr().err
+    assert seen == [False] * (len(seen) - 1) + [True]
 
 
 def test_a_running_application_is_asked_into_the_bootloader(capsys):
@@ -87,12 +107,21 @@ def test_a_running_application_is_asked_into_the_bootloader(capsys):
     assert_written(servo)
 
 
+def test_an_application_storing_its_settings_is_asked_again(capsys):
+    servo = FakeBootServo(mode="app")
+    servo.boot_busy = 2
+    code, _ = flash(servo)
+    assert code == 0, capsys.readouterr().err
+    assert instructions(servo)[:7] == [INFO, BOOT, INFO, BOOT, INFO, BOOT, INFO]
+    assert_written(servo)
+
+
 def test_an_application_without_the_boot_request_is_an_error(capsys):
     servo = FakeBootServo(mode="app", knows_boot=False)
     code, _ = flash(servo)
     assert code == 1
     assert "does not know instruction 0x0A" in capsys.readouterr().err
-    assert BEGIN not in instructions(servo)
+    assert PAGE not in instructions(servo)
 
 
 def test_a_silent_servo_is_an_error_naming_its_id_and_baud(capsys):
@@ -103,14 +132,14 @@ def test_a_silent_servo_is_an_error_naming_its_id_and_baud(capsys):
     assert "servo 2 does not answer at 57600 bps" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("kind", ["drop", "checksum", 0x10, 0x20])
+@pytest.mark.parametrize("kind", ["drop", "checksum", 0x20])
 def test_a_page_is_sent_again_after_a_lost_garbled_or_failed_answer(capsys, kind):
     servo = FakeBootServo()
     servo.fault(PAGE, kind, times=2, after=5)
     code, _ = flash(servo)
     assert code == 0, capsys.readouterr().err
-    pages = len(ax12_app_image.load(HEX_328P).pages(128))
-    assert instructions(servo).count(PAGE) == pages + 2
+    writes = len(ax12_app_image.load(HEX_328P).update_pages("atmega328p"))
+    assert instructions(servo).count(PAGE) == writes + 2
     assert_written(servo)
 
 
@@ -120,7 +149,7 @@ def test_a_page_that_keeps_failing_is_given_up_after_the_retries(capsys):
     code, _ = flash(servo, "--retries", "2")
     err = capsys.readouterr().err
     assert code == 1
-    assert "PAGE 0x0080: ID 2: no answer within 0.1 s (3 attempts)" in err
+    assert "PAGE 0x0000: ID 2: no answer within 0.1 s (3 attempts)" in err
     assert instructions(servo).count(PAGE) == 1 + 3
     assert GO not in instructions(servo)
 
@@ -130,18 +159,18 @@ def test_a_range_error_is_not_retried(capsys):
     servo.fault(PAGE, 0x08, times=1)
     code, _ = flash(servo)
     assert code == 1
-    assert "PAGE 0x0000: servo 2 answered with address or length outside the application area" in \
-        capsys.readouterr().err
+    assert "PAGE 0x7D80: servo 2 answered with address outside the application area" in capsys.readouterr().err
     assert instructions(servo).count(PAGE) == 1
 
 
-def test_an_image_crc_mismatch_at_end_is_an_error_and_no_go(capsys):
-    servo = FakeBootServo()
-    servo.fault(END, 0x10)
+def test_a_bootloader_of_another_version_is_refused(capsys, monkeypatch):
+    servo = FakeBootServo()  # its INFO: version 1
+    monkeypatch.setattr(servo, "_answer_as_bootloader",
+                        lambda i, p: servo._send(0, bytes([1]) + servo.signature) if i == INFO else None)
     code, _ = flash(servo)
     assert code == 1
-    assert "END: servo 2 answered with CRC does not match" in capsys.readouterr().err
-    assert instructions(servo).count(END) == 1 and GO not in instructions(servo)
+    assert "bootloader is version 1; this tool writes to version 2" in capsys.readouterr().err
+    assert PAGE not in instructions(servo)
 
 
 def test_status_packets_of_other_ids_are_ignored(capsys):
@@ -175,7 +204,8 @@ def test_a_servo_still_in_its_bootloader_after_go_is_an_error(capsys):
     servo.stays_after_go = True
     code, _ = flash(servo)
     assert code == 1
-    assert "still in its bootloader after GO" in capsys.readouterr().err
+    assert "still in its bootloader after GO (4 attempts): the application in its flash is not valid" in \
+        capsys.readouterr().err
 
 
 def test_a_lost_go_is_sent_again(capsys):
@@ -192,12 +222,12 @@ def test_an_application_at_status_return_level_0_is_asked_in_and_started(capsys)
     code, _ = flash(servo)
     out, err = capsys.readouterr()
     assert code == 0, err
-    assert instructions(servo)[:6] == [INFO, INFO, PING, BOOT, INFO, BEGIN]
+    assert instructions(servo)[:6] == [INFO, INFO, PING, BOOT, INFO, PAGE]
     assert_written(servo)
     assert "it answers PING, not READ (Status Return Level 0)" in out
 
 
-def test_an_image_for_the_other_part_is_refused_before_begin(capsys):
+def test_an_image_for_the_other_part_is_refused_before_a_write(capsys):
     servo = FakeBootServo()
     code, _ = flash(servo, hex_path=HEX_88)
     assert code == 2
@@ -205,15 +235,15 @@ def test_an_image_for_the_other_part_is_refused_before_begin(capsys):
     assert instructions(servo) == [INFO]
 
 
-def test_an_image_larger_than_the_servo_takes_is_refused_before_begin(capsys, tmp_path):
+def test_an_image_larger_than_the_servo_takes_is_refused_before_a_write(capsys, tmp_path):
     image = IntelHex(HEX_328P)
-    image[0x7780] = 0x00  # the record page
+    image[0x7DFC] = 0x00  # the record
     big = tmp_path / "big.hex"
     image.write_hex_file(str(big))
     servo = FakeBootServo()
     code, _ = flash(servo, hex_path=str(big))
     assert code == 2
-    assert "larger than the atmega328p's application area" in capsys.readouterr().err
+    assert "larger than the atmega328p's application area less the record, 32252 B" in capsys.readouterr().err
     assert instructions(servo) == [INFO]
 
 
