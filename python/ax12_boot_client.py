@@ -7,6 +7,7 @@ Every method sends one request (again on a lost or garbled answer, up to `retrie
 where repeating it is harmless) and returns the answer's parameters, or raises BootError with a
 message naming the servo and the step.
 """
+import time
 from collections import namedtuple
 
 from ax12_servo_port import BadChecksum, NoAnswer
@@ -26,6 +27,12 @@ ERR_INSTRUCTION, ERR_RANGE, ERR_READ_BACK = 0x40, 0x08, 0x20
 ERROR_NAMES = {ERR_INSTRUCTION: "unknown instruction or wrong length",
                ERR_RANGE: "address outside the application area",
                ERR_READ_BACK: "the page did not read back as sent"}
+
+# Sent before a request goes again after a lost answer: no header in them, and more than the
+# longest request (a PAGE of 128 B: LENGTH 132) is long, so they end any packet the
+# bootloader's framing took up from bytes of a cut one, whether or not its 100 ms gap has
+# passed in the servo's time (docs/bootloader.md "Packets").
+FLUSH = bytes(133)
 
 # The INFO answer (docs/bootloader.md): the bootloader's version and the MCU's signature.
 BootInfo = namedtuple("BootInfo", "version signature")
@@ -60,15 +67,28 @@ class BootClient:
     def ident(self):
         return self.servo.ident
 
-    def ask(self, instruction, params=(), what="", retry_errors=0, attempts=None):
+    def _exchange(self, instruction, params, echo):
+        """The servo's answer to one request; with echo, an answer whose parameters are not
+        echo is a late one to an earlier request (sent again after a timeout), and the next
+        one is waited for."""
+        answer = self.servo.exchange(instruction, params)
+        deadline = time.monotonic() + self.servo.timeout_s
+        while echo is not None and bytes(answer.params) != echo:
+            answer = self.servo.read_status(deadline)
+        return answer
+
+    def ask(self, instruction, params=(), what="", retry_errors=0, attempts=None, echo=None):
         """The answer (ax12_packets.Packet) to instruction, sent again after a timeout, a bad
         checksum or an error bit among retry_errors, at most attempts times in all (default
-        retries + 1). Any other error bit raises BootError at once."""
+        retries + 1). Any other error bit raises BootError at once. echo: the parameters the
+        answer must carry (others are late answers, skipped)."""
         attempts = self.retries + 1 if attempts is None else attempts
         problem = None
-        for _ in range(attempts):
+        for attempt in range(attempts):
+            if attempt:
+                self.servo.port.write(FLUSH)
             try:
-                answer = self.servo.exchange(instruction, params)
+                answer = self._exchange(instruction, params, echo)
             except (NoAnswer, BadChecksum) as error:
                 problem = str(error)
                 continue
@@ -113,8 +133,10 @@ class BootClient:
             return None
 
     def page(self, address, data):
-        """Writes one page; a read-back error (0x20) is tried again."""
-        self.ask(PAGE, u16(address) + list(data), f"PAGE 0x{address:04X}", retry_errors=ERR_READ_BACK)
+        """Writes one page; a read-back error (0x20) is tried again. The answer carries the
+        address back."""
+        self.ask(PAGE, u16(address) + list(data), f"PAGE 0x{address:04X}", retry_errors=ERR_READ_BACK,
+                 echo=bytes(u16(address)))
 
     def read_page(self, address, page_bytes):
         """The page_bytes flash bytes of the page at address (a page of the application

@@ -1,6 +1,8 @@
 /* PAGE (docs/bootloader.md "Packets"): one page of the application area erased, programmed
- * with SPM and compared with what the request carried. Reached from the dispatch
- * (boot_serve.S) with the request in the buffer and r25 its LENGTH. */
+ * with SPM and compared with what the request carried; the answer carries the request's first
+ * two parameters back (the address as sent: a flasher tells a late answer from this one's).
+ * Reached from the dispatch (boot_serve.S) with the request in the buffer and r25 its
+ * LENGTH. */
 #include <avr/io.h>
 
 #include "boot_image.h"
@@ -14,6 +16,7 @@
 
   .global boot_page
 boot_page:
+  ldi COUNT, BOOT_PAGE_HEAD_BYTES /* the address, still at BOOT_BUF_PARAMS */
   cpi r25, 2 + BOOT_PAGE_HEAD_BYTES + SPM_PAGESIZE
   brne boot_bad
   rcall boot_page_at

@@ -23,7 +23,8 @@
 
 /* INFO's parameters: BOOT_VERSION and the MCU's three signature bytes. */
 #define BOOT_INFO_BYTES 4
-/* PAGE's parameters: the page's address (16 bits, little-endian), then its bytes. */
+/* PAGE's parameters: the page's address (16 bits, little-endian), then its bytes; its answer
+ * carries the first two back. */
 #define BOOT_PAGE_HEAD_BYTES 2
 
 #endif

@@ -14,6 +14,9 @@
 #endif
 #define GAP_TICKS 25000
 #define GAP_PRESET (0x10000 - GAP_TICKS)
+/* The longest request: a PAGE. A longer LENGTH (a header made of lost bytes, or another
+ * servo's long packet) is dropped at once rather than taking up to 255 bytes that follow. */
+#define MAX_LENGTH (2 + BOOT_PAGE_HEAD_BYTES + SPM_PAGESIZE)
 
   .text
 
@@ -35,12 +38,12 @@ boot_serve:
   sts TCNT1L, r25
   sbi _SFR_IO_ADDR(TIFR1), TOV1
 
-/* The framing step (docs/policy.md "Framing and bus"): two or more 0xFF, ID, LENGTH (2 or
- * more), LENGTH - 1 bytes of instruction and parameters, checksum = ~(ID + LENGTH + body).
+/* The framing step (docs/policy.md "Framing and bus"): two or more 0xFF, ID, LENGTH (2 ..
+ * MAX_LENGTH), LENGTH - 1 bytes of instruction and parameters, checksum = ~(ID + LENGTH + body).
  * FRAME_STATE: 0 and 1 count the 0xFF of a header, 2 waits for the ID past any further 0xFF,
  * 3 stores ID, LENGTH and body at X (from BOOT_BUF_ID on) and sums them in FRAME_SUM. A
- * LENGTH below 2 or a wrong checksum drops the packet and the search starts at the next
- * byte. A packet with a good checksum to this servo's ID goes on to the dispatch. */
+ * LENGTH out of that range or a wrong checksum drops the packet and the search starts at the
+ * next byte. A packet with a good checksum to this servo's ID goes on to the dispatch. */
   cpi FRAME_STATE, 3
   breq 2f
   cpi r24, 0xFF
@@ -64,9 +67,10 @@ boot_serve:
   brlo boot_serve               /* the ID */
   brne 3f
   mov FRAME_LEFT, r24           /* LENGTH */
-  cpi r24, 2
-  brsh boot_serve
-  ldi FRAME_LEFT, 1             /* below 2: ends here, and ID + LENGTH is no good sum */
+  subi r24, 2
+  cpi r24, MAX_LENGTH - 1
+  brlo boot_serve               /* 2 .. MAX_LENGTH */
+  ldi FRAME_LEFT, 1             /* else it ends here, and ID + LENGTH is no good sum */
 3:
   dec FRAME_LEFT
   brne boot_serve

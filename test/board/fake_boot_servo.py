@@ -6,8 +6,9 @@ servo answers as docs/bootloader.md says its bootloader does, or as its applicat
 
 Faults, to see the tool's retries and messages: fault(instruction, kind, times) makes the next
 `times` requests of that instruction (from its `after`-th on) never reach the servo ("lost"),
-lose their answer ("drop"), get an answer with a wrong checksum ("checksum"), or an error byte
-(an int); `silent` answers nothing at all; `status_return_level` 0 makes the application
+never reach it while the answer to the request before comes again ("stale": a late answer to
+an earlier request), lose their answer ("drop"), get an answer with a wrong checksum
+("checksum"), or an error byte (an int); `silent` answers nothing at all; `status_return_level` 0 makes the application
 answer PING only; `other_id_first` sends a status packet of another ID before every answer;
 `read_flip` flips one byte of the READ answers at that flash address; `boot_busy` makes the
 application answer that many BOOT requests without entering (a store of its settings under
@@ -42,6 +43,7 @@ class FakeBootServo:
         self.faults = []  # [instruction, kind, after, times]
         self.requests = []
         self.received = bytearray()
+        self.last_answer = b""
         self.timeout = 0.05
         self._out = bytearray()
         self._in = bytearray()
@@ -66,14 +68,20 @@ class FakeBootServo:
     def write(self, data):
         self.received += data
         self._in += data
-        while len(self._in) >= 6 and self._in[3] + 4 <= len(self._in):
+        while True:
+            while self._in and not self._in.startswith(b"\xff\xff"[:len(self._in)]):
+                del self._in[0]  # no header here (the flasher's FLUSH): dropped, as a servo does
+            if not (len(self._in) >= 6 and self._in[3] + 4 <= len(self._in)):
+                break
             size = self._in[3] + 4
             packet = ax12_packets.parse(bytes(self._in[:size]))
             del self._in[:size]
             if packet is not None and packet.checksum_ok and packet.ident == self.ident:
                 self.requests.append((packet.code, bytes(packet.params)))
                 self._fault = self._fault_for(packet.code)
-                if self._fault != "lost":
+                if self._fault == "stale":
+                    self._out += self.last_answer
+                elif self._fault != "lost":
                     self._answer(packet.code, bytes(packet.params))
         return len(data)
 
@@ -105,6 +113,7 @@ class FakeBootServo:
         if fault == "checksum":
             packet[-1] ^= 0xFF
         self._out += packet
+        self.last_answer = bytes(packet)
 
     def _answer(self, instruction, params):
         if self.mode == "app":
@@ -147,12 +156,14 @@ class FakeBootServo:
             self._send(0)
         elif instruction == INFO:
             self._send(0, bytes([2]) + self.signature)
-        elif instruction == PAGE and len(params) == 2 + self.page_bytes:
+        elif instruction == PAGE:  # its answer carries the address back
             address = self._page_of(params)
+            if len(params) != 2 + self.page_bytes:
+                return self._send(0x40, params[:2])
             if address is None:
-                return self._send(0x08)
+                return self._send(0x08, params[:2])
             self.flash[address:address + self.page_bytes] = params[2:]
-            self._send(0)
+            self._send(0, params[:2])
         elif instruction == READ and len(params) == 2:
             address = self._page_of(params)
             if address is None:

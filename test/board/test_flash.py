@@ -21,6 +21,7 @@ ax12_build.ensure(os.path.join(REPO, "build"))
 
 import ax12_app_image  # noqa: E402
 import ax12_flash  # noqa: E402
+import ax12_packets  # noqa: E402
 from fake_boot_servo import BOOT, GO, INFO, PAGE, PING, READ, FakeBootServo  # noqa: E402
 
 FIRMWARE_DIR = os.environ.get("AX12_FIRMWARE_DIR") or os.path.join(REPO, "build", "firmware")
@@ -140,6 +141,28 @@ def test_a_page_is_sent_again_after_a_lost_garbled_or_failed_answer(capsys, kind
     assert code == 0, capsys.readouterr().err
     writes = len(ax12_app_image.load(HEX_328P).update_pages("atmega328p"))
     assert instructions(servo).count(PAGE) == writes + 2
+    assert_written(servo)
+
+
+def test_a_request_sent_again_comes_after_bytes_that_end_any_packet_the_servo_took_up(capsys):
+    servo = FakeBootServo()
+    servo.fault(PAGE, "drop", times=1, after=3)
+    code, _ = flash(servo)
+    assert code == 0, capsys.readouterr().err
+    dropped = ax12_packets.instruction_packet(2, PAGE, [*servo.requests[4][1]])  # its answer lost
+    received = bytes(servo.received)
+    at = received.index(dropped, received.index(dropped) + 1)  # sent again
+    assert received[at - 133:at] == bytes(133), "133 bytes of 0x00 before it"
+    assert received.count(bytes(133)) == 1, "only before the one sent again"
+
+
+def test_a_late_answer_to_the_page_before_is_not_taken_for_this_one(capsys):
+    servo = FakeBootServo()
+    servo.fault(PAGE, "stale", times=1, after=6)
+    code, _ = flash(servo)
+    assert code == 0, capsys.readouterr().err
+    writes = len(ax12_app_image.load(HEX_328P).update_pages("atmega328p"))
+    assert instructions(servo).count(PAGE) == writes + 1, "the page whose answer was another's is sent again"
     assert_written(servo)
 
 

@@ -49,6 +49,7 @@ static const part_t ATMEGA328P = {"atmega328p", AX12_BOOTABLE_APPS_atmega328p, 3
 #define MAX_PAGE 128u
 #define INFO_REPLY_BYTES (6u + BOOT_INFO_BYTES)
 #define STATUS_BYTES 6u
+#define PAGE_ANSWER_BYTES (STATUS_BYTES + BOOT_PAGE_HEAD_BYTES) /* the address carried back */
 #define BOOT_KEY 'B', 'O', 'O', 'T'
 #define HASH_BAUD_REGISTER 34u
 
@@ -172,7 +173,11 @@ static uint8_t send_page(harness_t *h, const part_t *part, uint16_t address, con
   params[0] = (uint8_t)address;
   params[1] = (uint8_t)(address >> 8);
   memcpy(&params[2], data, part->page_bytes);
-  return ask(h, UPDATED_ID, BOOT_INST_PAGE, params, BOOT_PAGE_HEAD_BYTES + part->page_bytes, STATUS_BYTES, NULL);
+  uint8_t reply[PAGE_ANSWER_BYTES];
+  const uint8_t error =
+      ask(h, UPDATED_ID, BOOT_INST_PAGE, params, BOOT_PAGE_HEAD_BYTES + part->page_bytes, PAGE_ANSWER_BYTES, reply);
+  assert_memory_equal(&reply[5], params, BOOT_PAGE_HEAD_BYTES); /* the address as sent */
+  return error;
 }
 
 static void read_page(harness_t *h, const part_t *part, uint16_t address, uint8_t *out) {
@@ -490,11 +495,12 @@ static void check_bad_requests(const part_t *part) {
   assert_int_equal(ask(&h, UPDATED_ID, 0x21, H_NO_PARAMS, STATUS_BYTES, NULL), BOOT_ERROR_INSTRUCTION);
   assert_int_equal(ask(&h, UPDATED_ID, 0x03, HP(0x1E, 0x00, 0x02), STATUS_BYTES, NULL), BOOT_ERROR_INSTRUCTION);
   assert_int_equal(ask(&h, UPDATED_ID, BOOT_INST_PAGE, params, BOOT_PAGE_HEAD_BYTES + part->page_bytes - 1u,
-                       STATUS_BYTES, NULL),
+                       PAGE_ANSWER_BYTES, NULL),
                    BOOT_ERROR_INSTRUCTION);
-  assert_int_equal(ask(&h, UPDATED_ID, BOOT_INST_PAGE, params, BOOT_PAGE_HEAD_BYTES + part->page_bytes + 1u,
-                       STATUS_BYTES, NULL),
-                   BOOT_ERROR_INSTRUCTION);
+  /* One byte longer than the longest request: no packet at all. */
+  assert_int_equal(harness_request(&h, UPDATED_ID, BOOT_INST_PAGE, params, BOOT_PAGE_HEAD_BYTES + part->page_bytes + 1u,
+                                   0, NULL),
+                   0);
   assert_int_equal(ask(&h, UPDATED_ID, BOOT_INST_READ, HP(0x00), STATUS_BYTES, NULL), BOOT_ERROR_INSTRUCTION);
   assert_int_equal(ask(&h, UPDATED_ID, BOOT_INST_READ, HP(0x00, 0x00, 0x00), STATUS_BYTES, NULL),
                    BOOT_ERROR_INSTRUCTION);
@@ -527,6 +533,30 @@ static void check_bad_requests(const part_t *part) {
   const uint8_t short_length[] = {0xFF, 0xFF, UPDATED_ID, 0x01, 0xFC, 0xFF, 0xFF, 0xFE, 0x00};
   assert_int_equal(harness_exchange(&h, short_length, sizeof short_length, 0, NULL, 0), 0);
   assert_int_equal(ask(&h, UPDATED_ID, BOOT_INST_PING, H_NO_PARAMS, STATUS_BYTES, NULL), 0);
+  /* A header whose LENGTH is no request's (bytes of a packet lost): dropped there, and a PING
+   * right after it is answered. */
+  const uint8_t long_then_ping[] = {0xFF, 0xFF, UPDATED_ID, 0xFF, 0xFF, 0xFF, UPDATED_ID, 0x02, BOOT_INST_PING,
+                                    (uint8_t)~(UPDATED_ID + 0x02 + 0x01)};
+  assert_int_equal(harness_exchange(&h, long_then_ping, sizeof long_then_ping, STATUS_BYTES, reply, sizeof reply),
+                   STATUS_BYTES);
+  /* A PAGE cut after 3 bytes of its body (a header taken up from bytes of a cut packet), then
+   * at once the flasher's 133 bytes of 0x00 (python/ax12_boot_client.py FLUSH) and a PING:
+   * answered. With 4 fewer than the PAGE still wants, the PING is taken for its rest. */
+  const uint8_t ping_now[] = {0xFF, 0xFF, UPDATED_ID, 0x02, BOOT_INST_PING, (uint8_t)~(UPDATED_ID + 0x02 + 0x01)};
+  const uint8_t page_length = (uint8_t)(2u + BOOT_PAGE_HEAD_BYTES + part->page_bytes);
+  const unsigned flushes[] = {133u, page_length - 3u - 4u};
+  for (size_t f = 0; f < 2; f++) {
+    const unsigned flush = flushes[f];
+    uint8_t burst[7u + 133u + sizeof ping_now];
+    const uint8_t cut[] = {0xFF, 0xFF, UPDATED_ID, page_length, BOOT_INST_PAGE, 0x00, 0x01};
+    memcpy(burst, cut, sizeof cut);
+    memset(&burst[sizeof cut], 0x00, flush);
+    memcpy(&burst[sizeof cut + flush], ping_now, sizeof ping_now);
+    const size_t expect = f == 0 ? STATUS_BYTES : 0u;
+    assert_int_equal(harness_exchange(&h, burst, sizeof cut + flush + sizeof ping_now, expect, reply, sizeof reply),
+                     expect);
+  }
+  world_run_until(h.world, h.world->now + sim_ms(11)); /* the gap ends the rest */
   /* A PING cut after its LENGTH: 101 ms later a whole PING is answered; the rest of the cut
    * one 50 ms later completes it. */
   const uint8_t ping[] = {0xFF, 0xFF, UPDATED_ID, 0x02, BOOT_INST_PING, (uint8_t)~(UPDATED_ID + 0x02 + 0x01)};
