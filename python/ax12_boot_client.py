@@ -28,11 +28,11 @@ ERROR_NAMES = {ERR_INSTRUCTION: "unknown instruction or wrong length",
                ERR_RANGE: "address outside the application area",
                ERR_READ_BACK: "the page did not read back as sent"}
 
-# Sent before a request goes again after a lost answer: no header in them, and more than the
-# longest request (a PAGE of 128 B: LENGTH 132) is long, so they end any packet the
-# bootloader's framing took up from bytes of a cut one, whether or not its 100 ms gap has
-# passed in the servo's time (docs/bootloader.md "Packets").
-FLUSH = bytes(133)
+# Sent before a request goes again after a lost answer: no header in them, and one more than a
+# packet's longest rest (LENGTH 255), so they end any packet the bootloader's framing took up
+# from bytes of a cut one, whether or not its 100 ms gap has passed in the servo's time
+# (docs/bootloader.md "Packets").
+FLUSH = bytes(256)
 
 # The INFO answer (docs/bootloader.md): the bootloader's version and the MCU's signature.
 BootInfo = namedtuple("BootInfo", "version signature")

@@ -39,7 +39,9 @@
 #define ERROR r20      /* the status packet's error byte */
 #define COUNT r21      /* the status packet's parameter count */
 #define TXC_CLEAR r22  /* UCSR0A with TXC0 written 1 (clears it) and U2X0 kept */
-/* Y = RAMSTART, the buffer, throughout; X points into it (XH = YH throughout). */
+/* Y = RAMSTART, the buffer, throughout. X points into its first 256 B (XH = YH: the
+ * instructions set XL only); the framing step writes through Z, as a packet of up to 257 B
+ * runs past them. */
 #endif
 
 #endif

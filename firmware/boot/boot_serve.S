@@ -14,9 +14,6 @@
 #endif
 #define GAP_TICKS 25000
 #define GAP_PRESET (0x10000 - GAP_TICKS)
-/* The longest request: a PAGE. A longer LENGTH (a header made of lost bytes, or another
- * servo's long packet) is dropped at once rather than taking up to 255 bytes that follow. */
-#define MAX_LENGTH (2 + BOOT_PAGE_HEAD_BYTES + SPM_PAGESIZE)
 
   .text
 
@@ -38,12 +35,14 @@ boot_serve:
   sts TCNT1L, r25
   sbi _SFR_IO_ADDR(TIFR1), TOV1
 
-/* The framing step (docs/policy.md "Framing and bus"): two or more 0xFF, ID, LENGTH (2 ..
- * MAX_LENGTH), LENGTH - 1 bytes of instruction and parameters, checksum = ~(ID + LENGTH + body).
+/* The framing step (docs/policy.md "Framing and bus"): two or more 0xFF, ID, LENGTH (2 or
+ * more), LENGTH - 1 bytes of instruction and parameters, checksum = ~(ID + LENGTH + body).
  * FRAME_STATE: 0 and 1 count the 0xFF of a header, 2 waits for the ID past any further 0xFF,
- * 3 stores ID, LENGTH and body at X (from BOOT_BUF_ID on) and sums them in FRAME_SUM. A
- * LENGTH out of that range or a wrong checksum drops the packet and the search starts at the
- * next byte. A packet with a good checksum to this servo's ID goes on to the dispatch. */
+ * 3 stores ID, LENGTH and body at Z (from BOOT_BUF_ID on: 257 B at most) and sums them in
+ * FRAME_SUM. A LENGTH below 2 ends the header there; a packet's bytes are never searched
+ * again, whatever its checksum, and the search starts after them. A packet with a good
+ * checksum to this servo's ID goes on to the dispatch. Unlike the core's step, the bytes of a
+ * Protocol 2.0 frame are searched too (no room to pass over them). */
   cpi FRAME_STATE, 3
   breq 2f
   cpi r24, 0xFF
@@ -57,20 +56,20 @@ boot_serve:
   cpi FRAME_STATE, 2
   ldi FRAME_STATE, 0
   brne boot_serve
-  ldi r26, BOOT_BUF_ID
+  movw r30, r28
+  adiw r30, BOOT_BUF_ID         /* Z: where the packet goes (a long one runs past 0x..FF) */
   clr FRAME_SUM
   ldi FRAME_STATE, 3
 2:
-  st X+, r24
+  st Z+, r24
   add FRAME_SUM, r24
-  cpi r26, BOOT_BUF_LENGTH + 1
+  cpi r30, BOOT_BUF_LENGTH + 1
   brlo boot_serve               /* the ID */
   brne 3f
   mov FRAME_LEFT, r24           /* LENGTH */
-  subi r24, 2
-  cpi r24, MAX_LENGTH - 1
-  brlo boot_serve               /* 2 .. MAX_LENGTH */
-  ldi FRAME_LEFT, 1             /* else it ends here, and ID + LENGTH is no good sum */
+  cpi r24, 2
+  brsh boot_serve
+  ldi FRAME_LEFT, 1             /* below 2: it ends here, and ID + LENGTH is no good sum */
 3:
   dec FRAME_LEFT
   brne boot_serve

@@ -9,6 +9,12 @@
 
 DEFINE_FIFO(uint16_t, uart_fifo);
 
+/* avr_raise_interrupt with room in simavr's pending list (simavr_patch.h). */
+static void raise(avr_t *avr, avr_int_vector_t *vector) {
+  simavr_interrupts_make_room(avr);
+  avr_raise_interrupt(avr, vector);
+}
+
 static avr_uart_t *find_uart0(avr_t *avr) {
   for (avr_io_t *io = avr->io_port; io; io = io->next) {
     if (io->kind && strcmp(io->kind, "uart") == 0 && io->irq_ioctl_get == (uint32_t)AVR_IOCTL_UART_GETIRQ('0')) {
@@ -66,11 +72,11 @@ static avr_cycle_count_t shift_done(avr_t *avr, avr_cycle_count_t when, void *pa
   if (link->buffer_full) {
     link->buffer_full = false;
     start_byte(link, link->buffer, when);
-    avr_raise_interrupt(avr, &link->uart->udrc);
+    raise(avr, &link->uart->udrc);
     return link->shift_end;
   }
   link->shift_busy = false;
-  avr_raise_interrupt(avr, &link->uart->txc);
+  raise(avr, &link->uart->txc);
   return 0;
 }
 
@@ -84,7 +90,7 @@ static void udr_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) {
     start_byte(link, v, avr->cycle);
     avr_cycle_timer_register(avr, link->shift_end - avr->cycle, shift_done, link);
     /* The buffer moved to the shift register: empty again. */
-    avr_raise_interrupt(avr, &link->uart->udrc);
+    raise(avr, &link->uart->udrc);
   } else if (!link->buffer_full) {
     link->buffer = v;
     link->buffer_full = true;
@@ -108,10 +114,10 @@ static void ucsrb_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) 
    * interrupts at once (a received byte waiting when an application takes over the USART a
    * bootloader left receiving). */
   if (avr_regbit_get(avr, u->rxc.enable) && avr_regbit_get(avr, u->rxc.raised)) {
-    avr_raise_interrupt(avr, &u->rxc);
+    raise(avr, &u->rxc);
   }
   if (avr_regbit_get(avr, u->txc.enable) && avr_regbit_get(avr, u->txc.raised)) {
-    avr_raise_interrupt(avr, &u->txc);
+    raise(avr, &u->txc);
   }
 }
 
@@ -149,7 +155,7 @@ static uint8_t udr_read(avr_t *avr, avr_io_addr_t addr, void *param) {
   if (uart_fifo_isempty(&u->input)) {
     clear_flag(avr, &u->rxc);
   } else {
-    avr_raise_interrupt(avr, &u->rxc);
+    raise(avr, &u->rxc);
   }
   if (!uart_fifo_isfull(&u->input)) {
     avr_regbit_clear(avr, u->dor);
@@ -198,7 +204,7 @@ static void receive(uart_link_t *link, const bus_rx_t *rx) {
   uart_fifo_write(&u->input, fifo_entry(rx));
   simavr_uart_rx_limiter_reset(u); /* simavr 1.6: else its limiter clears RXC early */
   link->rx_bytes++;
-  avr_raise_interrupt(avr, &u->rxc);
+  raise(avr, &u->rxc);
 }
 
 static avr_cycle_count_t rx_due(avr_t *avr, avr_cycle_count_t when, void *param) {

@@ -152,8 +152,8 @@ def test_a_request_sent_again_comes_after_bytes_that_end_any_packet_the_servo_to
     dropped = ax12_packets.instruction_packet(2, PAGE, [*servo.requests[4][1]])  # its answer lost
     received = bytes(servo.received)
     at = received.index(dropped, received.index(dropped) + 1)  # sent again
-    assert received[at - 133:at] == bytes(133), "133 bytes of 0x00 before it"
-    assert received.count(bytes(133)) == 1, "only before the one sent again"
+    assert received[at - 256:at] == bytes(256), "256 bytes of 0x00 before it"
+    assert received.count(bytes(256)) == 1, "only before the one sent again"
 
 
 def test_a_late_answer_to_the_page_before_is_not_taken_for_this_one(capsys):

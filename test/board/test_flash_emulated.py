@@ -150,8 +150,18 @@ def exchange(device, ident, instruction, params=(), timeout_s=0.5):
             return None
 
 
+def ask(device, ident, instruction, params=(), attempts=4):
+    """exchange() up to `attempts` times (the emulator on a busy machine may not answer within
+    one timeout): the answer, or None."""
+    for _ in range(attempts):
+        answer = exchange(device, ident, instruction, params)
+        if answer is not None:
+            return answer
+    return None
+
+
 def read(device, ident, address, count):
-    answer = exchange(device, ident, boot.READ_DATA, [address, count])
+    answer = ask(device, ident, boot.READ_DATA, [address, count])
     assert answer is not None and answer.code == 0 and len(answer.params) == count, (ident, address, answer)
     return list(answer.params)
 
@@ -175,7 +185,7 @@ def bus_rows(path):
 def test_update_over_the_bus_changes_one_servo_only(serve, state_dir, mcu):
     log = state_dir / "bus.csv"
     emu = serve(mcu, "--log-bus", str(log))
-    assert exchange(emu.device, 2, T.INST_WRITE, list(KEPT_SETTING)).code == 0
+    assert ask(emu.device, 2, T.INST_WRITE, list(KEPT_SETTING)).code == 0
     for profile in ("ax12a", "ax12"):
         started = time.monotonic()
         run = flash(emu.device, mcu, profile)

@@ -7,8 +7,9 @@
  * three while the other two answer; a power cut after every page write leaves a servo that
  * answers in its bootloader (or, after the last write, runs the new application) and takes a
  * new update; the stock '#' trigger at 57 142 bps; the ID and Baud Rate from the settings
- * (factory values on a blank EEPROM); every error answer, the gap rule, packets to others.
- * Simulated time throughout.
+ * (factory values on a blank EEPROM); every error answer, the gap rule, a long packet, the
+ * flasher's bytes that end a packet taken up from a cut one, packets to others; the
+ * application answering at once after GO that ends a long stay. Simulated time throughout.
  *
  * The applications: AX12_BOOTABLE_APPS_<mcu>/ax12-<profile>-<mcu>.elf, the product's where it
  * sits beside the bootloader (firmware/bootable_mcus.cmake), else a test build that does
@@ -497,10 +498,10 @@ static void check_bad_requests(const part_t *part) {
   assert_int_equal(ask(&h, UPDATED_ID, BOOT_INST_PAGE, params, BOOT_PAGE_HEAD_BYTES + part->page_bytes - 1u,
                        PAGE_ANSWER_BYTES, NULL),
                    BOOT_ERROR_INSTRUCTION);
-  /* One byte longer than the longest request: no packet at all. */
-  assert_int_equal(harness_request(&h, UPDATED_ID, BOOT_INST_PAGE, params, BOOT_PAGE_HEAD_BYTES + part->page_bytes + 1u,
-                                   0, NULL),
-                   0);
+  /* One byte longer: framed by its LENGTH all the same, and the wrong length for a PAGE. */
+  assert_int_equal(ask(&h, UPDATED_ID, BOOT_INST_PAGE, params, BOOT_PAGE_HEAD_BYTES + part->page_bytes + 1u,
+                       PAGE_ANSWER_BYTES, NULL),
+                   BOOT_ERROR_INSTRUCTION);
   assert_int_equal(ask(&h, UPDATED_ID, BOOT_INST_READ, HP(0x00), STATUS_BYTES, NULL), BOOT_ERROR_INSTRUCTION);
   assert_int_equal(ask(&h, UPDATED_ID, BOOT_INST_READ, HP(0x00, 0x00, 0x00), STATUS_BYTES, NULL),
                    BOOT_ERROR_INSTRUCTION);
@@ -533,28 +534,24 @@ static void check_bad_requests(const part_t *part) {
   const uint8_t short_length[] = {0xFF, 0xFF, UPDATED_ID, 0x01, 0xFC, 0xFF, 0xFF, 0xFE, 0x00};
   assert_int_equal(harness_exchange(&h, short_length, sizeof short_length, 0, NULL, 0), 0);
   assert_int_equal(ask(&h, UPDATED_ID, BOOT_INST_PING, H_NO_PARAMS, STATUS_BYTES, NULL), 0);
-  /* A header whose LENGTH is no request's (bytes of a packet lost): dropped there, and a PING
-   * right after it is answered. */
-  const uint8_t long_then_ping[] = {0xFF, 0xFF, UPDATED_ID, 0xFF, 0xFF, 0xFF, UPDATED_ID, 0x02, BOOT_INST_PING,
-                                    (uint8_t)~(UPDATED_ID + 0x02 + 0x01)};
-  assert_int_equal(harness_exchange(&h, long_then_ping, sizeof long_then_ping, STATUS_BYTES, reply, sizeof reply),
-                   STATUS_BYTES);
-  /* A PAGE cut after 3 bytes of its body (a header taken up from bytes of a cut packet), then
-   * at once the flasher's 133 bytes of 0x00 (python/ax12_boot_client.py FLUSH) and a PING:
-   * answered. With 4 fewer than the PAGE still wants, the PING is taken for its rest. */
+  /* A header of LENGTH 255 and 3 bytes of its body (bytes of a cut packet taken up), then at
+   * once the flasher's 256 bytes of 0x00 (python/ax12_boot_client.py FLUSH) and a PING:
+   * answered. With 4 fewer than the packet still wants, the PING is taken for its rest. */
   const uint8_t ping_now[] = {0xFF, 0xFF, UPDATED_ID, 0x02, BOOT_INST_PING, (uint8_t)~(UPDATED_ID + 0x02 + 0x01)};
-  const uint8_t page_length = (uint8_t)(2u + BOOT_PAGE_HEAD_BYTES + part->page_bytes);
-  const unsigned flushes[] = {133u, page_length - 3u - 4u};
+  const unsigned flushes[] = {256u, 255u - 3u - 4u};
   for (size_t f = 0; f < 2; f++) {
     const unsigned flush = flushes[f];
-    uint8_t burst[7u + 133u + sizeof ping_now];
-    const uint8_t cut[] = {0xFF, 0xFF, UPDATED_ID, page_length, BOOT_INST_PAGE, 0x00, 0x01};
+    uint8_t burst[7u + 256u + sizeof ping_now];
+    const uint8_t cut[] = {0xFF, 0xFF, UPDATED_ID, 0xFF, BOOT_INST_PAGE, 0x00, 0x01};
     memcpy(burst, cut, sizeof cut);
     memset(&burst[sizeof cut], 0x00, flush);
     memcpy(&burst[sizeof cut + flush], ping_now, sizeof ping_now);
     const size_t expect = f == 0 ? STATUS_BYTES : 0u;
     assert_int_equal(harness_exchange(&h, burst, sizeof cut + flush + sizeof ping_now, expect, reply, sizeof reply),
                      expect);
+    if (expect) {
+      assert_memory_equal(reply, ((const uint8_t[]){0xFF, 0xFF, UPDATED_ID, 0x02, 0x00}), 5);
+    }
   }
   world_run_until(h.world, h.world->now + sim_ms(11)); /* the gap ends the rest */
   /* A PING cut after its LENGTH: 101 ms later a whole PING is answered; the rest of the cut
@@ -611,6 +608,34 @@ static void test_the_application_enters_once_no_store_is_under_way_and_the_motor
   check_enter_after_store_and_motor(&ATMEGA328P);
 }
 
+/* A long stay in the bootloader entered from the application (whose Timer1 interrupts stay
+ * enabled, the bootloader's interrupts off): every gap of more than 100 ms lets Timer1 pass its
+ * compare values. Then GO with a PING right behind it (its bytes arrive while the application
+ * sets up its USART): the application answers that PING's next try. */
+static void check_long_stay(const part_t *part) {
+  harness_t h;
+  open_bus(&h, part, "ax12", NULL);
+  enter_bootloader(&h, UPDATED_ID);
+  for (unsigned gap = 0; gap < 80; gap++) {
+    assert_int_equal(ask(&h, UPDATED_ID, BOOT_INST_PING, H_NO_PARAMS, STATUS_BYTES, NULL), 0);
+    world_run_until(h.world, h.world->now + sim_ms(150));
+  }
+  const uint8_t go[] = {0xFF, 0xFF, UPDATED_ID, 0x02, BOOT_INST_GO, (uint8_t)~(UPDATED_ID + 0x02 + BOOT_INST_GO)};
+  const uint8_t ping[] = {0xFF, 0xFF, UPDATED_ID, 0x02, 0x01, (uint8_t)~(UPDATED_ID + 0x02 + 0x01)};
+  uint8_t reply[16];
+  assert_int_equal(harness_exchange(&h, go, sizeof go, STATUS_BYTES, reply, sizeof reply), STATUS_BYTES);
+  harness_exchange(&h, ping, sizeof ping, 0, NULL, 0); /* during the application's start */
+  assert_int_equal(harness_exchange(&h, ping, sizeof ping, STATUS_BYTES, reply, sizeof reply), STATUS_BYTES);
+  assert_int_equal(firmware_version(&h, UPDATED_ID), 1);
+  harness_close(&h);
+}
+
+static void test_the_application_answers_after_a_long_stay_in_the_bootloader(void **state) {
+  (void)state;
+  check_long_stay(&ATMEGA88);
+  check_long_stay(&ATMEGA328P);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_the_application_starts_after_the_check_and_enters_the_bootloader_when_asked),
@@ -620,6 +645,7 @@ int main(void) {
       cmocka_unit_test(test_the_bootloader_answers_at_the_id_and_baud_rate_of_the_settings),
       cmocka_unit_test(test_bad_requests_get_their_error_and_packets_to_others_nothing),
       cmocka_unit_test(test_the_application_enters_once_no_store_is_under_way_and_the_motor_stops),
+      cmocka_unit_test(test_the_application_answers_after_a_long_stay_in_the_bootloader),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }
