@@ -4,6 +4,7 @@ socket"): one JSON object a line each way. Used by `ax12 world`, the dashboard a
 """
 import json
 import os
+import select
 import socket
 
 DEFAULT_SOCKET_NAME = "control.sock"
@@ -65,6 +66,23 @@ class Control:
             self.buffer += chunk
         line, self.buffer = self.buffer.split(b"\n", 1)
         return json.loads(line)
+
+    def next_event(self, timeout_s):
+        """The next event pushed to a subscriber (one kept while a request waited first), or
+        None when none comes within timeout_s."""
+        if self.events:
+            return self.events.pop(0)
+        if b"\n" not in self.buffer:
+            readable, _, _ = select.select([self.sock], [], [], max(timeout_s, 0.0))
+            if not readable:
+                return None
+            chunk = self.sock.recv(65536)
+            if not chunk:
+                raise ControlError("the emulator closed the control socket")
+            self.buffer += chunk
+            if b"\n" not in self.buffer:
+                return None
+        return self.read_line()
 
     def request(self, op, **fields):
         """Sends {"op": op, ...}; returns the reply; ControlError with the emulator's message

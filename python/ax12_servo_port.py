@@ -3,9 +3,8 @@
 
 The port is any object with pyserial's write(), read(n), reset_input_buffer() and a writable
 `timeout` (seconds): a serial.Serial, or a test's stand-in. Packets are built and checked by
-python/ax12_packets.py. Status packets of other IDs (a servo answering late, or another master's
-exchange) are skipped; bytes that start no packet are dropped one at a time until a header
-comes, as a servo resyncs.
+python/ax12_packets.py, which also frames what comes back (its one framing rule). Status packets
+of other IDs (a servo answering late, or another master's exchange) are skipped.
 
 transact() is the raw exchange under it, for the tests that look at the bytes themselves:
 whatever comes back, packet or not.
@@ -13,7 +12,6 @@ whatever comes back, packet or not.
 import time
 
 import ax12_packets
-from ax12_table import HEADER_BYTE
 
 
 def transact(port, request, reply_len, timeout_s=1.0):
@@ -55,7 +53,7 @@ class ServoPort:
         (time.monotonic()). Raises NoAnswer or BadChecksum."""
         buffer = bytearray()
         while True:
-            packet = self._take_packet(buffer)
+            packet = ax12_packets.take(buffer)
             if packet is not None:
                 if packet.ident != self.ident:
                     continue
@@ -67,35 +65,4 @@ class ServoPort:
                 raise NoAnswer(f"ID {self.ident}: no answer within {self.timeout_s:g} s"
                                + (f" ({len(buffer)} bytes of no whole packet)" if buffer else ""))
             self.port.timeout = min(left, 0.05)
-            buffer += self.port.read(self._wanted(buffer))
-
-    @staticmethod
-    def _wanted(buffer):
-        """How many bytes complete the packet begun in buffer (at least 1)."""
-        if len(buffer) >= 4 and buffer[0] == buffer[1] == HEADER_BYTE:
-            return max(1, buffer[3] + 4 - len(buffer))
-        return max(1, ax12_packets.SHORTEST - len(buffer))
-
-    @staticmethod
-    def _take_packet(buffer):
-        """Removes and returns the first whole packet at the start of buffer (leading bytes
-        that start no packet are dropped), or None when more bytes are needed."""
-        while buffer:
-            if buffer[0] != HEADER_BYTE or (len(buffer) >= 2 and buffer[1] != HEADER_BYTE):
-                del buffer[0]
-                continue
-            # FF FF FF...: the extra FF are header bytes too (ID 0xFF is no servo).
-            while len(buffer) >= 3 and buffer[2] == HEADER_BYTE:
-                del buffer[0]
-            if len(buffer) < 4:
-                return None
-            if buffer[3] < 2:
-                del buffer[0]
-                continue
-            size = buffer[3] + 4
-            if len(buffer) < size:
-                return None
-            packet = ax12_packets.parse(bytes(buffer[:size]))
-            del buffer[:size]
-            return packet
-        return None
+            buffer += self.port.read(ax12_packets.missing(buffer))

@@ -172,47 +172,22 @@ def exchanges(rows):
 
 # --- packets -----------------------------------------------------------------------------------
 
+def packets():
+    """python/ax12_packets.py, the framer and checksum of every Python tool; imported once main()
+    has found the generated table it needs (ax12_build.ensure)."""
+    import ax12_packets
+    return ax12_packets
+
+
 def split(data):
-    """data cut as the bus monitor cuts one sender's bytes: Protocol 1.0 packets (FF FF, more FF
-    tolerated, ID, LENGTH >= 2, LENGTH bytes), and the bytes between them as garbage chunks.
-    Returns a list of bytes objects."""
-    out, garbage, i = [], b"", 0
-    while i < len(data):
-        if data[i:i + 2] == b"\xff\xff":
-            h = i + 2
-            while h < len(data) and data[h] == 0xFF:
-                h += 1
-            if h + 1 < len(data) and data[h + 1] >= 2 and h + 2 + data[h + 1] <= len(data):
-                if garbage:
-                    out.append(garbage)
-                    garbage = b""
-                end = h + 2 + data[h + 1]
-                out.append(data[i:end])
-                i = end
-                continue
-        garbage += data[i:i + 1]
-        i += 1
-    if garbage:
-        out.append(garbage)
-    return out
+    """data cut as the bus monitor cuts one sender's bytes (ax12_packets.cut): Protocol 1.0
+    packets and the garbage runs between them, each a bytes object."""
+    return [chunk for _, chunk in packets().cut(data)]
 
 
-def framed(packet):
-    """(header length, ID, LENGTH) of a whole 1.0 packet, else None (garbage)."""
-    if packet[:2] != b"\xff\xff":
-        return None
-    h = 2
-    while h < len(packet) and packet[h] == 0xFF:
-        h += 1
-    if h + 1 >= len(packet) or packet[h + 1] < 2 or h + 2 + packet[h + 1] != len(packet):
-        return None
-    return h, packet[h], packet[h + 1]
-
-
-def checksum_ok(packet, h):
-    """Whether the last byte of a framed packet (header length h) is its checksum."""
-    import ax12_packets  # python/, its ax12_table found by main() (ax12_build.ensure)
-    return ax12_packets.checksum(packet[h:-1]) == packet[-1]
+def checksum_ok(packet, f):
+    """Whether the last byte of the packet f frames is its checksum."""
+    return packets().checksum(packets().body_of(packet, f)) == packet[-1]
 
 
 def varying_addresses(T):
@@ -227,11 +202,11 @@ def varying_addresses(T):
 
 def read_window(request, T):
     """(first address, count) when request is a whole READ packet, else None."""
-    f = framed(request)
+    f = packets().frame(request)
     if not f:
         return None
-    h, _, length = f
-    if request[h + 2] != T.INST_READ or length != 4:
+    h = f.header
+    if request[h + 2] != T.INST_READ or f.length != 4:
         return None
     return request[h + 3], request[h + 4]
 
@@ -240,10 +215,10 @@ def same(request, expected, got, strict, T, varying):
     """Whether got answers as expected does, by the comparison rules (module docstring)."""
     if strict or expected == got:
         return expected == got
-    fe, fg = framed(expected), framed(got)
-    if not fe or not fg or len(expected) != len(got) or fe[0] != fg[0]:
+    fe, fg = packets().frame(expected), packets().frame(got)
+    if not fe or not fg or len(expected) != len(got) or fe.header != fg.header:
         return False
-    h = fe[0]
+    h = fe.header
     if expected[:h + 3] != got[:h + 3]:  # header, ID, LENGTH, error byte
         return False
     window = read_window(request, T)
@@ -256,7 +231,7 @@ def same(request, expected, got, strict, T, varying):
             continue
         return False
     if skipped:
-        return checksum_ok(got, h) or not checksum_ok(expected, h)
+        return checksum_ok(got, fg) or not checksum_ok(expected, fe)
     return expected[-1] == got[-1]
 
 
@@ -296,14 +271,14 @@ class Port:
 
 def describe(row, T):
     packet = row.raw
-    f = framed(packet)
+    f = packets().frame(packet)
     if row.kind != "instruction" or not f:
         return row.kind
-    h, ident, _ = f
+    h, ident = f.header, f.ident
     names = {T.INST_PING: "PING", T.INST_READ: "READ", T.INST_WRITE: "WRITE", T.INST_REG_WRITE: "REG_WRITE",
              T.INST_ACTION: "ACTION", T.INST_RESET: "RESET", T.INST_SYNC_WRITE: "SYNC_WRITE"}
     name = names.get(packet[h + 2], "instruction 0x%02X" % packet[h + 2])
-    bad = "" if checksum_ok(packet, h) else ", bad checksum"
+    bad = "" if checksum_ok(packet, f) else ", bad checksum"
     return "%s ID %d%s" % (name, ident, bad)
 
 
@@ -368,8 +343,8 @@ def replay(args, T):
 def shape(packet):
     """What two answers must share to be taken for the same answer, one maybe changed: a
     packet's header, ID, LENGTH and error byte; garbage whole."""
-    f = framed(packet)
-    return packet if not f else packet[:f[0] + 3]
+    f = packets().frame(packet)
+    return packet if not f else packet[:f.header + 3]
 
 
 def compare(ex, answers, strict, T, varying):

@@ -12,6 +12,9 @@
 #include "uart.h"
 #if DXL_HAS_BOOTLOADER
 #include "boot_request.h"
+#include "dxl_servo.h"
+
+extern dxl_servo_t servo; /* main.c: the one servo, whose table the store takes */
 #endif
 
 _Static_assert(DXL_LINK_REPLY_IDLE == UART_REPLY_IDLE && DXL_LINK_REPLY_ARMED == UART_REPLY_ARMED &&
@@ -136,7 +139,8 @@ void dxl_link_port_handled(void *port, dxl_find_result_t found, const uint8_t *b
 
 void dxl_after_port_persist(void *port, const uint8_t *table) {
   (void)port;
-  nvm_persist(table);
+  (void)table; /* always servo.table, which the main loop gives nvm_service() */
+  nvm_persist();
 }
 
 void dxl_after_port_set_baud(void *port, uint8_t baud_register) {

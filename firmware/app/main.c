@@ -152,7 +152,7 @@ static void power_up(void) {
   dxl_servo_power_up(&servo, stored, sensors.position_counts); /* the first control tick writes
                                                                  the other Present items */
   if (stored == NULL) {
-    nvm_persist(servo.table); /* no valid slot: factory defaults, written back */
+    nvm_persist(); /* no valid slot: factory defaults, written back */
   }
   adc_start(adc_sequence[0]);
   dxl_link_init(&link, &servo, NULL);
@@ -173,7 +173,7 @@ int main(void) {
     dxl_link_service_reply(&link, &servo);
     service_rx();
     service_tick();
-    nvm_service();
+    nvm_service(servo.table);
     /* Work an ISR leaves (a received byte, a tick, a reply sent) sets the wake flag; a pass
      * that stops early with bytes waiting (a reply under way) is woken by the reply's
      * TX-complete. */

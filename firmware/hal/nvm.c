@@ -48,7 +48,9 @@ __attribute__((noinline)) const uint8_t *nvm_load(void) {
   return &slot_bytes[DXL_IMAGE_OFS_TABLE];
 }
 
-void nvm_persist(const uint8_t *eeprom_area) {
+/* A store of eeprom_area into the slot not in use, with the next sequence number. */
+static void start_store(const uint8_t *eeprom_area) {
+  GPIOR0 &= (uint8_t)~_BV(NVM_PENDING_BIT);
   slot_index = (uint8_t)(active_slot ^ 1u);
   dxl_image_slot_build(slot_bytes, eeprom_area, (uint8_t)(active_sequence + 1u));
   steps_left = DXL_IMAGE_SLOT_BYTES;
@@ -63,19 +65,26 @@ bool nvm_work_ready(void) {
   return true;
 }
 
-bool nvm_busy(void) { return steps_left != 0 || !eeprom_is_ready(); }
+bool nvm_busy(void) { return steps_left != 0 || nvm_persist_pending() || !eeprom_is_ready(); }
 
-void nvm_service(void) {
+void nvm_service(const uint8_t *eeprom_area) {
+  if (steps_left == 0) {
+    if (!nvm_persist_pending()) {
+      return;
+    }
+    start_store(eeprom_area);
+  }
   while (nvm_work_ready()) {
     const uint8_t offset = dxl_image_write_offset((uint8_t)(DXL_IMAGE_SLOT_BYTES - steps_left--));
     uint8_t *const addr = eeprom_addr(slot_index, offset);
+    const uint8_t value = slot_bytes[offset];
     if (steps_left == 0) {
       /* The sequence number (written now, or already right): this slot is in use. */
       active_slot = slot_index;
-      active_sequence = slot_bytes[DXL_IMAGE_OFS_SEQUENCE];
+      active_sequence = value;
     }
-    if (eeprom_read_byte(addr) != slot_bytes[offset]) {
-      eeprom_write_byte(addr, slot_bytes[offset]);
+    if (eeprom_read_byte(addr) != value) {
+      eeprom_write_byte(addr, value);
       EECR |= _BV(EERIE);
       return;
     }

@@ -3,9 +3,13 @@
 
 #include <elf.h>
 #include <errno.h>
+#include <stdlib.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
+
+/* Where data space starts in an AVR ELF's addresses: flash lies below. */
+#define ELF_AVR_DATA_SPACE 0x800000u
 
 /* e_flags of an AVR ELF: the architecture number in its low 7 bits (binutils' EF_AVR_MACH). */
 #define AVR_MACH_MASK 0x7Fu
@@ -110,4 +114,40 @@ bool elf_check_avr(const char *path, const char *mcu, char *err, size_t err_len)
     return false;
   }
   return true;
+}
+
+/* elf_open_avr for a question whose answer is "no" when the file cannot be read. */
+static FILE *open_for_a_question(const char *path, Elf32_Ehdr *h) {
+  char err[160];
+  return elf_open_avr(path, h, err, sizeof err);
+}
+
+bool elf_has_section(const char *path, const char *name) {
+  Elf32_Ehdr h;
+  FILE *f = open_for_a_question(path, &h);
+  if (!f) {
+    return false;
+  }
+  bool found = false;
+  Elf32_Shdr names;
+  if (h.e_shstrndx != SHN_UNDEF && h.e_shstrndx < h.e_shnum &&
+      fseek(f, (long)(h.e_shoff + (uint64_t)h.e_shstrndx * h.e_shentsize), SEEK_SET) == 0 &&
+      fread(&names, sizeof names, 1, f) == 1) {
+    const size_t len = strlen(name);
+    char *buf = malloc(len + 1u);
+    for (unsigned i = 0; buf && i < h.e_shnum && !found; i++) {
+      Elf32_Shdr sh;
+      if (fseek(f, (long)(h.e_shoff + (uint64_t)i * h.e_shentsize), SEEK_SET) != 0 || fread(&sh, sizeof sh, 1, f) != 1 ||
+          sh.sh_name >= names.sh_size) {
+        continue;
+      }
+      if (fseek(f, (long)(names.sh_offset + sh.sh_name), SEEK_SET) == 0 && fread(buf, 1, len + 1u, f) == len + 1u &&
+          memcmp(buf, name, len + 1u) == 0) {
+        found = true;
+      }
+    }
+    free(buf);
+  }
+  fclose(f);
+  return found;
 }

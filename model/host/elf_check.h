@@ -29,6 +29,10 @@ bool elf_program_header(FILE *f, const Elf32_Ehdr *h, unsigned i, Elf32_Phdr *ph
  * a one-line reason in err. */
 bool elf_check_avr(const char *path, const char *mcu, char *err, size_t err_len);
 
+/* Whether the ELF at path has a section called name (e.g. ".mmcu", where simavr's
+ * avr_mcu_section.h puts the MCU and clock a program was built for). */
+bool elf_has_section(const char *path, const char *name);
+
 /* The flash size of mcu in bytes (0 for an MCU the emulator does not know). */
 uint32_t elf_mcu_flash_bytes(const char *mcu);
 

@@ -14,6 +14,7 @@
 
 #include <stdbool.h>
 
+#include "bridge.h"
 #include "gearbox.h"
 #include "load.h"
 #include "motor.h"
@@ -27,7 +28,7 @@ typedef struct {
     ax12_pot_params_t pot;
     ax12_supply_params_t supply;  /* source_v is the world's supply, settable */
     ax12_thermal_params_t thermal;
-    double bridge_r_ohm;          /* H-bridge on-resistance in the motor loop (high + low side) */
+    ax12_bridge_params_t bridge;  /* H-bridge: on-resistance, body diodes */
     double ambient_c;             /* the world's air temperature, settable */
     double max_substep_s;         /* internal integration step bound */
 } ax12_plant_params_t;
@@ -61,8 +62,9 @@ void ax12_plant_init_on_supply(ax12_plant_t *plant, double source_v, double sour
 
 /* Advance by dt_s (any value up to 1 ms is accurate; larger is stable) with the
  * H-bridge at duty (clamped to -1..+1; NaN = 0). The motor sees duty x terminal
- * voltage on average; duty exactly 0 opens the motor terminals (coast, no current).
- * dt_s <= 0 changes nothing. */
+ * voltage on average; duty exactly 0 is coast: every MOSFET off, the terminals free
+ * until the back-EMF exceeds the supply plus two body-diode drops, which then brake
+ * the motor and return current to the supply (bridge.h). dt_s <= 0 changes nothing. */
 void ax12_plant_step(ax12_plant_t *plant, double duty, double dt_s);
 
 /* The world. A new supply voltage shows at once in the readings; a new air

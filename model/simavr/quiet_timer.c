@@ -19,6 +19,31 @@ bool quiet_timer_interrupts_off(struct avr_t *avr, const struct avr_timer_t *tim
   return true;
 }
 
+static void add_enable(timer_enables_t *out, avr_regbit_t rb) {
+  if (!rb.reg) {
+    return; /* avr_regbit_get reads 0 */
+  }
+  const unsigned char mask = (unsigned char)(rb.mask << rb.bit);
+  for (unsigned i = 0; i < out->count; i++) {
+    if (out->reg[i] == rb.reg) {
+      out->mask[i] |= mask;
+      return;
+    }
+  }
+  out->reg[out->count] = rb.reg;
+  out->mask[out->count] = mask;
+  out->count++;
+}
+
+void timer_enables_of(const struct avr_timer_t *timer, timer_enables_t *out) {
+  memset(out, 0, sizeof(*out));
+  add_enable(out, timer->overflow.enable);
+  add_enable(out, timer->icr.enable);
+  for (int i = 0; i < AVR_TIMER_COMP_COUNT; i++) {
+    add_enable(out, timer->comp[i].interrupt.enable);
+  }
+}
+
 static void cancel_events(quiet_timer_t *qt) { qt->cancelled += simavr_cancel_timers_of(qt->avr, qt->timer); }
 
 /* simavr 1.6 schedules the timer's events from its control registers: a stop and a start

@@ -42,6 +42,28 @@ typedef struct {
 /* True when none of the timer's interrupts is enabled. */
 bool quiet_timer_interrupts_off(struct avr_t *avr, const struct avr_timer_t *timer);
 
+/* A timer's interrupt enable bits (overflow, input capture, compares) merged by register: the
+ * same answer as quiet_timer_interrupts_off() from one or two byte tests (servo_run.c asks it
+ * for every sleeping servo at every step of the world). */
+#define TIMER_ENABLE_REGS 5u
+typedef struct {
+  unsigned short reg[TIMER_ENABLE_REGS];
+  unsigned char mask[TIMER_ENABLE_REGS];
+  unsigned count;
+} timer_enables_t;
+
+void timer_enables_of(const struct avr_timer_t *timer, timer_enables_t *out);
+
+/* True when one of the bits is set in data (simavr's data space, avr->data). */
+static inline bool timer_enables_any(const unsigned char *data, const timer_enables_t *e) {
+  for (unsigned i = 0; i < e->count; i++) {
+    if (data[e->reg[i]] & e->mask[i]) {
+      return true;
+    }
+  }
+  return false;
+}
+
 /* Hooks the register writes of `timer` (a simavr avr_timer_t of `avr`). Returns false if its
  * registers are not where this expects them. */
 bool quiet_timer_attach(quiet_timer_t *qt, struct avr_t *avr, struct avr_timer_t *timer);

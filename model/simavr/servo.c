@@ -11,6 +11,7 @@
 #include <sim_elf.h>
 #include <sim_io.h>
 
+#include "fast_core.h"
 #include "servo_boot.h"
 #include "servo_eeprom.h"
 #include "servo_flash.h"
@@ -30,6 +31,7 @@ static bool attach_timers(servo_t *servo) {
   const unsigned max = sizeof(servo->timers) / sizeof(servo->timers[0]);
   for (avr_io_t *io = servo->avr->io_port; io && servo->timer_count < max; io = io->next) {
     if (io->kind && strcmp(io->kind, "timer") == 0) {
+      timer_enables_of((avr_timer_t *)io, &servo->timer_enables[servo->timer_count]);
       servo->timers[servo->timer_count++] = io;
       if (((avr_timer_t *)io)->name == '0' && !quiet_timer_attach(&servo->quiet_timer0, servo->avr, (avr_timer_t *)io)) {
         return false;
@@ -64,6 +66,7 @@ servo_t *servo_create(const servo_config_t *config, bus_t *bus, char *err, size_
   avr->vcc = avr->avcc = avr->aref = 5000;
   simavr_install_run_loop(avr);
   set_power_on_flag(avr);
+  servo->fast_core = fast_core_wanted() ? fast_core_new(avr) : NULL;
 
   const elf_firmware_t *fw = config->firmware;
   if ((config->bootloader && servo_boot_attach(servo, config->bootloader, fw->flashsize, err, err_len) != 0) ||
@@ -102,6 +105,7 @@ void servo_destroy(servo_t *servo) {
     servo_flash_detach(servo);
     free(servo->avr);
   }
+  fast_core_free(servo->fast_core);
   free(servo->persisted);
   free(servo);
 }

@@ -6,7 +6,7 @@
  *   servo_boot.h     the bootloader and its application record in the flash, the reset vector
  *   servo_eeprom.h   EEPROM write timing and persistence to the state file
  *   servo_flash.h    SPM timing and persistence of the flash to its state file
- *   servo_run.h      running the core: batches, sleep, the earliest wake
+ *   servo_run.h      running the core: batches, sleep, the earliest wake (fast_core.h runs them)
  *   servo_plant.h    the plant (model/plant) behind the board's pins
  *   servo_profile.h  the busy-time probe and the cycle profile by instruction
  *   servo_stack.h    the stack depth from the firmware's stack paint
@@ -28,6 +28,7 @@
 
 struct avr_t;
 struct avr_flash_t;
+struct fast_core;
 struct elf_firmware_t;
 struct servo_bootloader;
 struct servo_gdb;
@@ -56,6 +57,9 @@ typedef struct {
 
 typedef struct servo {
   struct avr_t *avr;
+  /* The decoded-instruction interpreter that runs avr's batches (fast_core.h); NULL: simavr's
+   * own avr_run_one (AX12_SIM_CORE=simavr). */
+  struct fast_core *fast_core;
   board_t board;
   char name[32];
   char state_path[4096];
@@ -104,6 +108,7 @@ typedef struct servo {
   uint64_t sleep_cycles;
   /* The MCU's timer modules (simavr avr_timer_t), for servo_earliest_wake(). */
   void *timers[4];
+  timer_enables_t timer_enables[4]; /* their interrupt enable bits */
   unsigned timer_count;
   /* Timer0 (the H-bridge PWM): its events are not simulated while no interrupt of it is
    * enabled (quiet_timer.h). */

@@ -9,7 +9,7 @@ __attribute__((noinline)) void servo_profiled_step(servo_t *servo) {
   avr_t *avr = servo->avr;
   const avr_flashaddr_t pc_before = avr->pc;
   const sim_cycles_t cycle_before = avr->cycle;
-  simavr_step_core(avr, 0);
+  simavr_step_core(avr, servo->fast_core, 0);
   servo->pc_cycles[(pc_before / 2u) % servo->pc_cycles_words] += avr->cycle - cycle_before;
 }
 

@@ -11,11 +11,11 @@
 #include "simavr_patch_run.h"
 
 /* An event of a timer module whose interrupts are all off cannot wake the core. */
-static bool event_cannot_wake(const void *owner, const void *ctx) {
+static inline bool event_cannot_wake(const void *owner, const void *ctx) {
   const servo_t *servo = ctx;
   for (unsigned i = 0; i < servo->timer_count; i++) {
     if (owner == servo->timers[i]) {
-      return quiet_timer_interrupts_off(servo->avr, servo->timers[i]);
+      return !timer_enables_any(servo->avr->data, &servo->timer_enables[i]);
     }
   }
   return false;
@@ -38,16 +38,9 @@ sim_cycles_t servo_earliest_wake(const servo_t *servo, sim_cycles_t now) {
   return when > now ? when : now;
 }
 
-void servo_run_until(servo_t *servo, sim_cycles_t t) {
+/* The core runs, or a cycle timer is due before t. */
+static __attribute__((noinline)) void run_awake(servo_t *servo, sim_cycles_t t) {
   avr_t *avr = servo->avr;
-  if (servo->halted || avr->cycle >= t) {
-    return;
-  }
-  if (avr->state == cpu_Sleeping && !avr->interrupt_state && simavr_first_timer_when(avr) >= t) {
-    servo->sleep_cycles += t - avr->cycle; /* nothing wakes it before t: the usual case */
-    simavr_set_clock(avr, t);
-    return;
-  }
   simavr_end_batches_at_timer_changes(avr);
   const sim_cycles_t until = servo->single_step || servo->probe_pc ? 0 : t; /* the profile: 0 too */
   while (!servo->halted && avr->cycle < t) {
@@ -68,12 +61,12 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
     if (__builtin_expect(servo->pc_cycles != NULL, 0)) {
       servo_profiled_step(servo);
     } else {
-      simavr_step_core(avr, until);
+      simavr_step_core(avr, servo->fast_core, until);
     }
     if (servo->probe_pc) {
       servo_probe_step(servo);
     }
-    if (__builtin_expect(simavr_reset_requested(avr), 0)) {
+    if (__builtin_expect(simavr_reset_requested_inline(avr), 0)) {
       servo_reset(servo); /* the watchdog expired (simavr_patch.h) */
       servo->watchdog_resets++;
       simavr_end_batches_at_timer_changes(avr);
@@ -86,4 +79,17 @@ void servo_run_until(servo_t *servo, sim_cycles_t t) {
               (unsigned)avr->pc);
     }
   }
+}
+
+void servo_run_until(servo_t *servo, sim_cycles_t t) {
+  avr_t *avr = servo->avr;
+  if (servo->halted || avr->cycle >= t) {
+    return;
+  }
+  if (avr->state == cpu_Sleeping && !avr->interrupt_state && simavr_first_timer_when(avr) >= t) {
+    servo->sleep_cycles += t - avr->cycle; /* nothing wakes it before t: the usual case */
+    simavr_set_clock(avr, t);
+    return;
+  }
+  run_awake(servo, t);
 }

@@ -50,16 +50,6 @@ bool io_has_read(const struct avr_t *avr, uint16_t addr) { return IO_SLOT(avr, a
 
 /* ---- the cycle-timer list ---- */
 
-sim_cycles_t simavr_first_timer_when_except(const avr_t *avr, bool (*skip)(const void *owner, const void *ctx),
-                                            const void *ctx) {
-  for (avr_cycle_timer_slot_p slot = avr->cycle_timers.timer; slot; slot = slot->next) {
-    if (!skip(slot->param, ctx)) {
-      return slot->when;
-    }
-  }
-  return SIM_CYCLES_NEVER;
-}
-
 unsigned simavr_cancel_timers_of(avr_t *avr, const void *owner) {
   unsigned cancelled = 0;
   for (;;) {
@@ -82,14 +72,14 @@ static void sleep_nothing(avr_t *avr, avr_cycle_count_t how_long) {
   (void)how_long;
 }
 
-static void run_one_step(avr_t *avr) { simavr_step_core(avr, 0); }
+void simavr_run_one_step(avr_t *avr) { simavr_step_core(avr, NULL, 0); }
 
 void simavr_install_run_loop(avr_t *avr) {
   avr->sleep = sleep_nothing;
-  avr->run = run_one_step;
+  avr->run = simavr_run_one_step;
 }
 
-bool simavr_reset_requested(const avr_t *avr) { return avr->run != run_one_step; }
+bool simavr_reset_requested(const avr_t *avr) { return simavr_reset_requested_inline(avr); }
 
 /* ---- the external-interrupt module ---- */
 

@@ -50,17 +50,14 @@ bool io_has_read(const struct avr_t *avr, uint16_t addr);
 
 /* ---- the cycle-timer list (avr->cycle_timers) ---- */
 
-/* When the first cycle timer is due whose owner (the param it was registered with) skip()
- * does not reject; SIM_CYCLES_NEVER when none. */
-sim_cycles_t simavr_first_timer_when_except(const struct avr_t *avr,
-                                            bool (*skip)(const void *owner, const void *ctx), const void *ctx);
+/* simavr_first_timer_when_except(): simavr_patch_run.h. */
 
 /* Cancels every cycle timer registered with param `owner`; returns how many. */
 unsigned simavr_cancel_timers_of(struct avr_t *avr, const void *owner);
 
 /* ---- the run loop (avr->run, avr->sleep) ---- */
 
-/* Installs simavr_step_core(avr, 0) (simavr_patch_run.h) as the core's run callback and a
+/* Installs simavr_step_core(avr, NULL, 0) (simavr_patch_run.h) as the core's run callback and a
  * sleep callback that does nothing: the world paces itself, and servo_run.c moves a sleeping
  * core's clock itself (simavr's sleep would only jump the clock, one cycle late). */
 void simavr_install_run_loop(struct avr_t *avr);

@@ -69,14 +69,10 @@ class FakeBootServo:
         self.received += data
         self._in += data
         while True:
-            while self._in and not self._in.startswith(b"\xff\xff"[:len(self._in)]):
-                del self._in[0]  # no header here (the flasher's FLUSH): dropped, as a servo does
-            if not (len(self._in) >= 6 and self._in[3] + 4 <= len(self._in)):
+            packet = ax12_packets.take(self._in)
+            if packet is None:
                 break
-            size = self._in[3] + 4
-            packet = ax12_packets.parse(bytes(self._in[:size]))
-            del self._in[:size]
-            if packet is not None and packet.checksum_ok and packet.ident == self.ident:
+            if packet.checksum_ok and packet.ident == self.ident:
                 self.requests.append((packet.code, bytes(packet.params)))
                 self._fault = self._fault_for(packet.code)
                 if self._fault == "stale":

@@ -1,7 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """`scripts/ax12 conform` (scripts/ax12_conform.py) against `ax12-emu serve`.
 
-- The matching profile: every case run passes, and the JSON report has its schema.
+- The matching profile: every case run passes, the JSON report has its schema, and the reply
+  timing taken from the emulator's bus (--emulator) has no reply early or late.
 - The other profile: the failing cases are exactly those whose records differ between the
   profiles (derived here from the two profiles' records and the generated table, not from the
   tool's logic).
@@ -12,103 +13,26 @@
 - Two devices at one ID (a fake device on a pty: the emulator refuses `--ids 1,1`): refused.
 - Bad input: a clear message and a non-zero exit, never a traceback.
 
-ctest sets AX12_EMU, AX12_FIRMWARE_DIR, AX12_CONFORM_DEFECT_DIR, AX12_BUILD_DIR and PYTHONPATH.
-The emulator runs in real time (the tool's timeouts are wall-clock) with the fixture of the
-client suites (test/clients/conftest.py), in a fresh state folder per test.
+Devices that are imperfect in other ways: test_imperfect_devices.py. Shared fixtures: conftest.py.
 """
-import importlib.util
 import json
 import os
 import pty
 import re
 import select
-import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 import tty
-from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[2]
-BUILD = Path(os.environ.get("AX12_BUILD_DIR", REPO / "build"))
-TOOL = REPO / "scripts" / "ax12_conform.py"
-DEFECTS = Path(os.environ.get("AX12_CONFORM_DEFECT_DIR", BUILD / "test" / "conform" / "defects"))
-sys.path.insert(0, str(REPO / "python"))
-import ax12_build  # noqa: E402
-
-ax12_build.ensure(str(BUILD))
-import ax12_table as T  # noqa: E402
-import ax12_packets as P  # noqa: E402
-import ax12_conformance_records as R  # noqa: E402
-from ax12_servo_port import transact  # noqa: E402
-
-_spec = importlib.util.spec_from_file_location("clients_conftest", REPO / "test" / "clients" / "conftest.py")
-clients = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(clients)
-
-
-@pytest.fixture
-def tmp_path():
-    """A folder of this test's own: pytest's numbered temporary folders are shared by every
-    pytest run of the user, and a run started elsewhere may delete ours while an emulator keeps
-    its state in it."""
-    folder = tempfile.mkdtemp(prefix="ax12-conform-test-")
-    yield Path(folder)
-    shutil.rmtree(folder, ignore_errors=True)
-
-
-@pytest.fixture
-def serve(tmp_path):
-    started = []
-
-    def start(profile="ax12", extra=(), state_dir=None):
-        emu = clients._find_emulator()
-        if emu is None:
-            pytest.fail("ax12-emu not found: set AX12_EMU")
-        e = clients.Emulator(emu, state_dir or tmp_path / ("state%d" % len(started)), profile=profile,
-                             extra=list(extra))
-        started.append(e)
-        return e.start()
-
-    yield start
-    for e in started:
-        e.stop()
-
-
-def conform(*args, timeout=300):
-    cmd = [sys.executable, str(TOOL), "--build", str(BUILD)] + [str(a) for a in args]
-    proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, timeout=timeout)
-    assert "Traceback" not in proc.stderr, proc.stderr
-    return proc
-
-
-def run_report(tmp_path, port, *args):
-    report = tmp_path / "report.json"
-    proc = conform("--port", port, "--allow-eeprom", "--report", report, *args)
-    assert report.exists(), proc.stdout + proc.stderr
-    return proc, json.loads(report.read_text())
-
-
-def failing(report):
-    return {(c["group"], c["name"]) for c in report["cases"] if c["status"] == "failed"}
-
-
-def ran(report):
-    return [c for c in report["cases"] if c["status"] in ("passed", "failed")]
-
-
-RECORDS = {}
-
-
-def records(profile):
-    if profile not in RECORDS:
-        RECORDS[profile] = R.run_tests(str(BUILD), (profile,))
-    return RECORDS[profile]
+import ax12_packets as P
+import ax12_table as T
+from ax12_servo_port import transact
+from conftest import BUILD, DEFECTS, R, TOOL, conform, failing, ran, records, run_report
 
 
 def hexes(text):
@@ -134,18 +58,25 @@ def check_schema(report):
         if c["status"] == "failed":
             assert c["differences"]
         for d in c["differences"]:
-            assert "step" in d and ("heard" in d or "note" in d)
+            assert "step" in d and d["note"]
         for r in c["replies"]:
-            assert set(r) == {"step", "start_us", "return_delay_us"}
+            assert {"step", "start_us", "return_delay_us", "late"} <= set(r) <= {
+                "step", "start_us", "return_delay_us", "late", "bus_start_us", "flag"}
     tm = report["timing"]
     assert tm["replies"] > 0 and set(tm["reply_start_minus_rdt_us"]) == {"min", "median", "max"}
+    assert tm["source"] in ("bus", "port") and tm["resolution"]
+    assert report["result"] in ("PASS", "FAIL", "NOTHING COMPARED", "INTERRUPTED")
 
 
 @pytest.mark.parametrize("profile", ["ax12", "ax12a"])
 def test_every_case_passes_against_the_matching_profile(serve, tmp_path, profile):
     emu = serve(profile=profile)
-    proc, report = run_report(tmp_path, emu.path, "--profile", profile)
+    proc, report = run_report(tmp_path, emu, "--profile", profile)
     check_schema(report)
+    # every reply starts at 2 us x Return Delay Time on the simulated wire: none early, none late
+    tm = report["timing"]
+    assert tm["source"] == "bus" and tm["early"] == 0 and tm["late"] == 0, tm
+    assert tm["replies"] > 200 and -1.0 <= tm["reply_start_minus_rdt_us"]["min"], tm
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert report["totals"]["failed"] == 0
     assert report["restored"] and not report["interrupted"]
@@ -164,7 +95,8 @@ def test_without_allow_eeprom_no_eeprom_case_runs_and_the_table_is_left_as_found
         assert P.parse(talk(emu.path, P.instruction_packet(1, T.INST_WRITE, [addr] + value), 6)).code == 0
     before = read_table(emu.path)
     report_path = tmp_path / "r.json"
-    proc = conform("--port", emu.path, "--only", "ranges", "--only", "matrix", "--report", report_path)
+    proc = conform("--port", emu.path, "--only", "ranges", "--only", "matrix", "--report", report_path,
+                   "--emulator", emu.control)
     report = json.loads(report_path.read_text())
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert ran(report) and all(not c["eeprom"] for c in ran(report))
@@ -266,7 +198,7 @@ def expected_profile_differences(compared, device):
 @pytest.mark.parametrize("compared,device", [("ax12", "ax12a"), ("ax12a", "ax12")])
 def test_the_other_profile_fails_exactly_where_the_profiles_differ(serve, tmp_path, compared, device):
     emu = serve(profile=device)
-    proc, report = run_report(tmp_path, emu.path, "--profile", compared)
+    proc, report = run_report(tmp_path, emu, "--profile", compared)
     assert proc.returncode == 1, proc.stdout + proc.stderr
     ran_keys = {(c["group"], c["name"]) for c in ran(report)}
     paired, expected = expected_profile_differences(compared, device)
@@ -319,7 +251,7 @@ def test_a_broken_build_fails_exactly_the_cases_its_defect_touches(serve, tmp_pa
     elf = DEFECTS / defect / "ax12-ax12-atmega88.elf"
     assert elf.exists(), "build the defect firmware first (cmake --build): %s" % elf
     emu = serve(profile="ax12", extra=["--elf", str(elf)])
-    proc, report = run_report(tmp_path, emu.path, "--profile", "ax12")
+    proc, report = run_report(tmp_path, emu, "--profile", "ax12")
     assert proc.returncode == 1, proc.stdout + proc.stderr
     ran_keys = {(c["group"], c["name"]) for c in ran(report)}
     expected = {(r["group"], r["name"]) for r in records("ax12") if touched(r)} & ran_keys
@@ -351,7 +283,7 @@ def test_ctrl_c_in_an_eeprom_case_leaves_the_original_settings(serve, tmp_path):
         assert P.parse(talk(emu.path, P.instruction_packet(1, T.INST_WRITE, [addr] + value), 6)).code == 0
     before = read_table(emu.path)
     cmd = [sys.executable, str(TOOL), "--build", str(BUILD), "--port", emu.path, "--allow-eeprom", "-v",
-           "--case", "A baud change applies after the reply"]
+           "--emulator", emu.control, "--case", "A baud change applies after the reply"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     seen = []
     for line in proc.stderr:
@@ -388,7 +320,7 @@ class FakeBus:
         self.thread.start()
 
     def run(self):
-        buf = b""
+        buf = bytearray()
         while not self.stop:
             try:
                 r, _, _ = select.select([self.master], [], [], 0.05)
@@ -397,14 +329,11 @@ class FakeBus:
                 buf += os.read(self.master, 256)
             except OSError:
                 return
-            while len(buf) >= 6:
-                start = buf.find(b"\xff\xff")
-                if start < 0 or len(buf) < start + 4 or len(buf) < start + 4 + buf[start + 3]:
+            while True:
+                p = P.take(buf)
+                if p is None:
                     break
-                packet = buf[start:start + 4 + buf[start + 3]]
-                buf = buf[start + len(packet):]
-                p = P.parse(packet)
-                if p and p.code == T.INST_PING and p.ident in (1, T.ID_BROADCAST) and self.reply:
+                if p.checksum_ok and p.code == T.INST_PING and p.ident in (1, T.ID_BROADCAST) and self.reply:
                     time.sleep(0.0005)
                     os.write(self.master, self.reply)
 

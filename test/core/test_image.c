@@ -275,6 +275,86 @@ static void test_a_cut_at_any_byte_of_any_write_boots_the_old_or_the_new_setting
   assert_true(cuts > 100000u);
 }
 
+/* The writer under a stream of writes (docs/firmware.md "EEPROM write policy"): Max Torque
+ * (two bytes) persisted anew every 1 ms for 2 s, on settings held in both slots, while each
+ * EEPROM byte takes 3.4 ms. A store under way is never restarted, so every write is stored
+ * (the last byte of its store complete) within 100 ms; and a cut at any byte (the byte left
+ * at 0x00 or 0xFF) boots complete settings of a write no older than the last one stored. */
+#define STREAM_MS 2000
+#define BYTE_US 3400u
+#define STORE_BOUND_MS 100
+#define FACTORY_MAX_TORQUE 1023u
+
+/* Max Torque of the write persisted at ms (never the factory value). */
+static uint16_t stream_value(int ms) { return (uint16_t)(ms % 1000); }
+
+/* Which write settings are: the newest persisted by now_ms with their Max Torque, -1 for the
+ * settings before the stream. */
+static int stream_write(const uint8_t *settings, int now_ms) {
+  assert_non_null(settings);
+  const uint16_t torque = ct_get_u16(settings, CT_ADDR_MAX_TORQUE);
+  if (torque == FACTORY_MAX_TORQUE) {
+    return -1;
+  }
+  int ms = now_ms < STREAM_MS ? now_ms : STREAM_MS - 1;
+  while (ms >= 0 && stream_value(ms) != torque) {
+    ms--;
+  }
+  if (ms < 0) {
+    fail_msg("Max Torque %u was never written", torque);
+  }
+  return ms;
+}
+
+static void test_a_stream_of_writes_is_stored_within_100_ms_and_a_cut_never_loses_a_stored_one(void **state) {
+  (void)state;
+  uint8_t area[CT_EEPROM_SIZE];
+  factory_area(area);
+  assert_int_equal(ct_get_u16(area, CT_ADDR_MAX_TORQUE), FACTORY_MAX_TORQUE);
+  eeprom_model_t model;
+  dxl_image_build(model.image, area);
+  (void)eeprom_model_boot(&model);
+  uint32_t ready_at_us = 0;
+  int stored = -1;
+  int longest_ms = 0;
+  unsigned cuts = 0;
+  for (uint32_t t_us = 0; t_us < (STREAM_MS + STORE_BOUND_MS) * 1000u; t_us += 100u) {
+    const int now_ms = (int)(t_us / 1000u);
+    if (t_us % 1000u == 0 && now_ms < STREAM_MS) {
+      ct_set_u16(area, CT_ADDR_MAX_TORQUE, stream_value(now_ms));
+      eeprom_model_persist(&model, area);
+    }
+    if (t_us >= ready_at_us && eeprom_model_busy(&model)) {
+      for (unsigned garbage = 0x00u; garbage <= 0xFFu; garbage += 0xFFu) {
+        eeprom_model_t cut = model;
+        const uint8_t torn = (uint8_t)garbage;
+        (void)eeprom_model_service(&cut, &torn);
+        const int booted = stream_write(dxl_image_settings(cut.image), now_ms);
+        assert_true(booted >= stored);
+        cuts++;
+      }
+      if (eeprom_model_service(&model, NULL)) {
+        ready_at_us = t_us + BYTE_US;
+      }
+    }
+    const int booted = stream_write(dxl_image_settings(model.image), now_ms);
+    assert_true(booted >= stored); /* never back to an older write */
+    stored = booted;
+    /* every write persisted by then is in, its store's last byte complete 3.4 ms after it
+     * started */
+    const int due = (int)((t_us + BYTE_US) / 1000u) - STORE_BOUND_MS;
+    if (due >= 0 && stored < (due < STREAM_MS ? due : STREAM_MS - 1)) {
+      fail_msg("at %d ms the newest write stored is the one of %d ms", now_ms, stored);
+    }
+    if (now_ms < STREAM_MS) {
+      longest_ms = now_ms - stored > longest_ms ? now_ms - stored : longest_ms;
+    }
+  }
+  assert_int_equal(stored, STREAM_MS - 1);
+  print_message("%u cuts, none lost a stored write; the stored write at most %d ms behind the newest\n", cuts,
+                longest_ms);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_crc16_of_the_standard_check_string_is_29b1),
@@ -287,6 +367,7 @@ int main(void) {
       cmocka_unit_test(test_of_two_valid_slots_the_one_ahead_in_sequence_boots),
       cmocka_unit_test(test_the_sequence_number_is_written_last),
       cmocka_unit_test(test_a_cut_at_any_byte_of_any_write_boots_the_old_or_the_new_settings),
+      cmocka_unit_test(test_a_stream_of_writes_is_stored_within_100_ms_and_a_cut_never_loses_a_stored_one),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }

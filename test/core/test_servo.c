@@ -391,21 +391,26 @@ typedef struct {
   const pol_item_t *item;
   uint16_t value;
   bool in_range;
-  const char *bound; /* "min-1", "min", "max", "max+1" */
+  const char *bound; /* "min-1", "min", "max", "max+1", "all ones" */
   char name[128];
 } range_case_t;
 
-#define RANGE_CASES_MAX (4u * POL_ITEM_COUNT)
+#define RANGE_BOUNDS 5u
+#define RANGE_CASES_MAX (RANGE_BOUNDS * POL_ITEM_COUNT)
 static range_case_t range_cases[RANGE_CASES_MAX];
+
+/* The record of a write-range case of item: its rule is the item's range, then rule_tail. */
+static void begin_range_record(const char *name, const pol_item_t *item, const char *rule_tail) {
+  char rule[224];
+  snprintf(rule, sizeof rule, "%s: write range %u..%u. %s", item->name, item->min, item->max, rule_tail);
+  conformance_begin("write ranges", name, CONFORMANCE_POLICY, "Control table; Instructions and their errors", rule);
+}
 
 static int range_case_setup(void **state) {
   const range_case_t *c = *state;
-  char rule[192];
-  snprintf(rule, sizeof rule,
-           "%s: write range %u..%u. Out-of-range value, read-only or reserved address, or a window past 49: Range "
-           "Error and nothing is written.",
-           c->item->name, c->item->min, c->item->max);
-  conformance_begin("write ranges", c->name, CONFORMANCE_POLICY, "Control table; Instructions and their errors", rule);
+  begin_range_record(c->name, c->item,
+                     "Out-of-range value, read-only or reserved address, or a window past 49: Range Error and "
+                     "nothing is written.");
   conformance_fact_int("address", c->item->addr);
   conformance_fact_str("item", c->item->name);
   conformance_fact_int("bytes", c->item->size_bytes);
@@ -447,6 +452,164 @@ static size_t add_range_case(size_t n, const pol_item_t *item, uint16_t value, b
   return n + 1;
 }
 
+/* One byte of a 16-bit item written alone, at the edges of a byte (00 and FF): the range check
+ * applies to the 16-bit value that results from the item's power-up value. */
+typedef struct {
+  const pol_item_t *item;
+  bool high;      /* the high byte (addr + 1), else the low byte */
+  uint8_t byte;   /* 0x00 or 0xFF */
+  uint16_t value; /* the item's value after the write, were it accepted */
+  bool in_range;
+  char name[128];
+} byte_case_t;
+
+#define BYTE_CASES_MAX (4u * POL_ITEM_COUNT)
+static byte_case_t byte_cases[BYTE_CASES_MAX];
+
+static int byte_case_setup(void **state) {
+  const byte_case_t *c = *state;
+  begin_range_record(c->name, c->item,
+                     "One byte of a 16-bit item may be written alone; the range check applies to the 16-bit value "
+                     "that results.");
+  conformance_fact_str("kind", "byte");
+  conformance_fact_int("address", c->item->addr + (c->high ? 1 : 0));
+  conformance_fact_str("item", c->item->name);
+  conformance_fact_str("byte", c->high ? "high" : "low");
+  conformance_fact_int("written", c->byte);
+  conformance_fact_int("value", c->value);
+  conformance_fact_bool("accepted", c->in_range);
+  conformance_fact_int("error", c->in_range ? angle_limit_after(c->item, c->value) : DXL_ERR_RANGE);
+  return 0;
+}
+
+static void test_byte_case(void **state) {
+  const byte_case_t *c = *state;
+  given_bus(&bus, ID);
+  assert_int_equal(item_value(c->item), c->item->power_up_value);
+  remember_the_table();
+  when_master_sends(&bus, ID, DXL_INST_WRITE, P((uint8_t)(c->item->addr + (c->high ? 1u : 0u)), c->byte));
+  if (!c->in_range) {
+    then_status_is(&bus, ID, DXL_ERR_RANGE, NO_PARAMS);
+    then_the_table_is_unchanged();
+    return;
+  }
+  then_status_is(&bus, ID, angle_limit_after(c->item, c->value), NO_PARAMS);
+  assert_int_equal(item_value(c->item), c->value);
+}
+
+static size_t build_byte_cases(struct CMUnitTest *tests) {
+  size_t n = 0;
+  for (size_t i = 0; i < POL_ITEM_COUNT; i++) {
+    const pol_item_t *item = &pol_items[i];
+    if (item->access != POL_RW || item->size_bytes != 2) {
+      continue;
+    }
+    for (unsigned k = 0; k < 4u; k++) {
+      byte_case_t *c = &byte_cases[n];
+      c->item = item;
+      c->high = k >= 2u;
+      c->byte = (k & 1u) ? 0xFFu : 0x00u;
+      const uint16_t before = item->power_up_value;
+      c->value = c->high ? (uint16_t)((before & 0x00FFu) | (unsigned)c->byte << 8)
+                         : (uint16_t)((before & 0xFF00u) | c->byte);
+      c->in_range = c->value >= item->min && c->value <= item->max;
+      snprintf(c->name, sizeof c->name, "WRITE of the %s byte of %s = %02X alone (%u) is %s", c->high ? "high" : "low",
+               item->name, c->byte, c->value, c->in_range ? "accepted" : "a Range Error");
+      tests[n] = (struct CMUnitTest){c->name, test_byte_case, byte_case_setup, case_teardown, c};
+      n++;
+    }
+  }
+  return n;
+}
+
+/* Every window of one and two bytes that covers a read-only or reserved address, filled with
+ * 00 and with FF: a Range Error, nothing written (a window with one bad byte writes nothing). */
+typedef struct {
+  uint8_t start;
+  uint8_t width;
+  uint8_t fill;
+  char covers[96]; /* the items the window covers, e.g. "Model Number, Firmware Version" */
+  char name[160];
+} window_case_t;
+
+#define WINDOW_CASES_MAX (2u * 2u * CT_SIZE)
+static window_case_t window_cases[WINDOW_CASES_MAX];
+
+static const pol_item_t *item_at(uint8_t addr) {
+  for (size_t i = 0; i < POL_ITEM_COUNT; i++) {
+    if (addr >= pol_items[i].addr && addr < pol_items[i].addr + pol_items[i].size_bytes) {
+      return &pol_items[i];
+    }
+  }
+  return NULL;
+}
+
+static bool is_read_only_or_reserved(uint8_t addr) {
+  const pol_item_t *item = item_at(addr);
+  return item != NULL && item->access != POL_RW;
+}
+
+static int window_case_setup(void **state) {
+  const window_case_t *c = *state;
+  conformance_begin("write ranges", c->name, CONFORMANCE_POLICY, "Control table; Instructions and their errors",
+                    "Out-of-range value, read-only or reserved address, or a window past 49: Range Error and nothing "
+                    "is written.");
+  conformance_fact_str("kind", "read-only window");
+  conformance_fact_int("address", c->start);
+  conformance_fact_int("bytes", c->width);
+  conformance_fact_int("fill", c->fill);
+  conformance_fact_str("covers", c->covers);
+  conformance_fact_int("error", DXL_ERR_RANGE);
+  return 0;
+}
+
+static void test_window_case(void **state) {
+  const window_case_t *c = *state;
+  given_bus(&bus, ID);
+  remember_the_table();
+  if (c->width == 2u) {
+    when_master_sends(&bus, ID, DXL_INST_WRITE, P(c->start, c->fill, c->fill));
+  } else {
+    when_master_sends(&bus, ID, DXL_INST_WRITE, P(c->start, c->fill));
+  }
+  then_status_is(&bus, ID, DXL_ERR_RANGE, NO_PARAMS);
+  then_the_table_is_unchanged();
+}
+
+static size_t build_window_cases(struct CMUnitTest *tests) {
+  size_t n = 0;
+  for (uint8_t width = 1; width <= 2u; width++) {
+    for (uint8_t start = 0; start + width <= CT_SIZE; start++) {
+      bool covers_one = false;
+      for (uint8_t k = 0; k < width; k++) {
+        covers_one |= is_read_only_or_reserved((uint8_t)(start + k));
+      }
+      if (!covers_one) {
+        continue;
+      }
+      for (unsigned f = 0; f < 2u; f++) {
+        window_case_t *c = &window_cases[n];
+        c->start = start;
+        c->width = width;
+        c->fill = f ? 0xFFu : 0x00u;
+        const pol_item_t *first = item_at(start);
+        const pol_item_t *last = item_at((uint8_t)(start + width - 1u));
+        if (first == last) {
+          snprintf(c->covers, sizeof c->covers, "%s", first->name);
+        } else {
+          snprintf(c->covers, sizeof c->covers, "%s, %s", first->name, last->name);
+        }
+        snprintf(c->name, sizeof c->name, "WRITE of %u byte%s %s at %u (%s) is a Range Error", width,
+                 width == 1u ? "" : "s", c->fill ? (width == 1u ? "FF" : "FF FF") : (width == 1u ? "00" : "00 00"),
+                 start, c->covers);
+        tests[n] = (struct CMUnitTest){c->name, test_window_case, window_case_setup, case_teardown, c};
+        n++;
+      }
+    }
+  }
+  return n;
+}
+
 static size_t build_range_cases(struct CMUnitTest *tests) {
   size_t n = 0;
   for (size_t i = 0; i < POL_ITEM_COUNT; i++) {
@@ -463,11 +626,16 @@ static size_t build_range_cases(struct CMUnitTest *tests) {
     if (item->max < limit) {
       n = add_range_case(n, item, (uint16_t)(item->max + 1u), false, "max+1");
     }
+    if (item->max + 1u < limit) { /* every bit set: the top of what the item's bytes can carry */
+      n = add_range_case(n, item, (uint16_t)limit, false, "all ones");
+    }
   }
   for (size_t i = 0; i < n; i++) {
     tests[i] = (struct CMUnitTest){range_cases[i].name, test_range_case, range_case_setup, case_teardown,
                                    &range_cases[i]};
   }
+  n += build_byte_cases(tests + n);
+  n += build_window_cases(tests + n);
   return n;
 }
 
@@ -487,14 +655,6 @@ static void test_moving_speed_up_to_2047_is_accepted_in_wheel_mode_only(void **s
   assert_int_equal(table_word(&bus, ID, CT_ADDR_MOVING_SPEED), 2047);
 }
 
-static bool is_read_only_or_reserved(uint8_t addr) {
-  for (size_t i = 0; i < POL_ITEM_COUNT; i++) {
-    if (addr >= pol_items[i].addr && addr < pol_items[i].addr + pol_items[i].size_bytes) {
-      return pol_items[i].access != POL_RW;
-    }
-  }
-  return false;
-}
 
 static void test_read_only_and_reserved_addresses_refuse_writes(void **state) {
   (void)state;
@@ -1328,7 +1488,7 @@ int main(void) {
                                          case_teardown, (void *)&error_path_list[i]};
   }
   static struct CMUnitTest matrix[MATRIX_CASES];
-  static struct CMUnitTest ranges[RANGE_CASES_MAX];
+  static struct CMUnitTest ranges[RANGE_CASES_MAX + BYTE_CASES_MAX + WINDOW_CASES_MAX];
   const size_t matrix_count = build_matrix(matrix);
   const size_t range_count = build_range_cases(ranges);
   int failed = 0;

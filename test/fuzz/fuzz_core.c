@@ -188,11 +188,17 @@ typedef struct {
   dxl_control_t control;
   dxl_sensors_t sensors;
   eeprom_model_t eeprom;
-  /* The settings a power-up may find: the last completely stored, and the store under way. */
+  /* The settings a power-up may find: the last completely stored (and the ones before it when
+   * the write of its sequence number was cut). Persisted settings wait (latest) until a store
+   * takes them (under_way), which never restarts: nvm.c's write policy. */
   bool have_stored;
   uint8_t stored[CT_EEPROM_SIZE];
-  bool have_in_flight;
-  uint8_t in_flight[CT_EEPROM_SIZE];
+  bool have_prior;
+  uint8_t prior[CT_EEPROM_SIZE];
+  bool have_under_way;
+  uint8_t under_way[CT_EEPROM_SIZE];
+  bool have_latest;
+  uint8_t latest[CT_EEPROM_SIZE];
   unsigned persists; /* stores started */
   /* docs/policy.md "Goal Position and the angle limits", kept here apart from the core: in
    * wheel mode, whether a Goal Position was written since wheel mode began. */
@@ -621,11 +627,30 @@ static void check_packet(const world_t *w, const dxl_servo_t *before, unsigned p
 }
 
 
-static void after_store_step(world_t *w) {
-  if (!eeprom_model_busy(&w->eeprom) && w->have_in_flight) {
-    memcpy(w->stored, w->in_flight, CT_EEPROM_SIZE);
+/* One nvm_service() with the EEPROM ready (torn: the byte it writes is cut, eeprom_model.h),
+ * following which settings a power-up may find. Returns whether it wrote a byte. */
+static bool service_store(world_t *w, const uint8_t *torn) {
+  if (w->eeprom.steps_left == 0 && w->eeprom.pending) { /* a store of the latest starts */
+    memcpy(w->under_way, w->latest, CT_EEPROM_SIZE);
+    w->have_under_way = true;
+    w->have_latest = false;
+  }
+  const bool wrote = eeprom_model_service(&w->eeprom, torn);
+  w->have_prior = false;
+  if (w->have_under_way && w->eeprom.steps_left == 0) { /* its sequence number is in */
+    w->have_prior = torn != NULL && w->have_stored; /* unless that write was cut */
+    memcpy(w->prior, w->stored, CT_EEPROM_SIZE);
+    memcpy(w->stored, w->under_way, CT_EEPROM_SIZE);
     w->have_stored = true;
-    w->have_in_flight = false;
+    w->have_under_way = false;
+  }
+  return wrote;
+}
+
+/* Services until every persisted setting is stored. */
+static void flush_store(world_t *w) {
+  while (eeprom_model_busy(&w->eeprom)) {
+    (void)service_store(w, NULL);
   }
 }
 
@@ -693,8 +718,8 @@ static void check_angle_condition(const world_t *w, const char *when) {
 /* A store: the EEPROM writer of nvm.c takes the settings over. */
 static void store_settings(world_t *w, const uint8_t *table) {
   eeprom_model_persist(&w->eeprom, table);
-  memcpy(w->in_flight, table, CT_EEPROM_SIZE);
-  w->have_in_flight = true;
+  memcpy(w->latest, table, CT_EEPROM_SIZE);
+  w->have_latest = true;
   w->persists++;
 }
 
@@ -968,8 +993,7 @@ static void send_reply(world_t *w) {
   for (unsigned ms = 1; ms <= w->reply_ms; ms++) {
     millisecond(w);
     if (ms % EEPROM_WRITE_EVERY_MS == 0) {
-      (void)eeprom_model_service(&w->eeprom, NULL);
-      after_store_step(w);
+      (void)service_store(w, NULL);
     }
   }
   fake_uart_reply_sent(&w->uart);
@@ -1111,14 +1135,17 @@ static void power_up(world_t *w) {
     }
   } else {
     const bool is_stored = w->have_stored && memcmp(stored, w->stored, CT_EEPROM_SIZE) == 0;
-    const bool is_in_flight = w->have_in_flight && memcmp(stored, w->in_flight, CT_EEPROM_SIZE) == 0;
-    if (!is_stored && !is_in_flight) {
-      fail("power-up found settings never stored (ID %u, baud %u)", stored[CT_ADDR_ID], stored[CT_ADDR_BAUD_RATE]);
+    const bool is_prior = w->have_prior && memcmp(stored, w->prior, CT_EEPROM_SIZE) == 0;
+    if (!is_stored && !is_prior) {
+      fail("power-up found settings other than the last stored (ID %u, baud %u)", stored[CT_ADDR_ID],
+           stored[CT_ADDR_BAUD_RATE]);
     }
     memcpy(w->stored, stored, CT_EEPROM_SIZE);
   }
   w->have_stored = stored != NULL;
-  w->have_in_flight = false;
+  w->have_prior = false;
+  w->have_under_way = false;
+  w->have_latest = false;
   dxl_servo_power_up(&w->servo, stored, w->sensors.position_counts);
   w->wheel_goal_written = false;
   if (stored == NULL) {
@@ -1415,7 +1442,7 @@ static void op_cut(world_t *w, input_t *in) {
   const uint8_t garbage = take(in);
   w->sensors.position_counts = (uint16_t)(take16(in) & PRESENT_POSITION_MAX);
   if ((how & 1u) && eeprom_model_busy(&w->eeprom)) {
-    (void)eeprom_model_service(&w->eeprom, &garbage); /* the byte being written is torn */
+    (void)service_store(w, &garbage); /* the byte being written is torn */
   }
   power_up(w);
 }
@@ -1462,15 +1489,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     case FUZZ_OP_EEPROM: {
       const unsigned n = take(&in) + 1u;
       for (unsigned i = 0; i < n; i++) {
-        (void)eeprom_model_service(&w->eeprom, NULL);
-        after_store_step(w);
+        (void)service_store(w, NULL);
       }
       check_eeprom_idle(w, "after EEPROM writes");
       break;
     }
     case FUZZ_OP_EEPROM_FLUSH:
-      (void)eeprom_model_flush(&w->eeprom);
-      after_store_step(w);
+      flush_store(w);
       check_eeprom_idle(w, "after the store");
       break;
     case FUZZ_OP_CUT:
@@ -1482,8 +1507,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size) {
     }
   }
   /* The end: the store runs out, then a power cycle finds exactly the settings in use. */
-  (void)eeprom_model_flush(&w->eeprom);
-  after_store_step(w);
+  flush_store(w);
   check_eeprom_idle(w, "at the end");
   uint8_t in_use[CT_EEPROM_SIZE];
   memcpy(in_use, w->servo.table, CT_EEPROM_SIZE);

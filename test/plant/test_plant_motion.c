@@ -47,6 +47,26 @@ static double coast_breakaway_nm(const ax12_plant_t *s)
     return p->gearbox.static_nm + p->gearbox.ratio * ax12_motor_friction_nm(&p->motor);
 }
 
+/* Steady speed of a coasting servo back-driven by a constant load_nm beyond its friction, from
+ * bridge.h: the back-EMF held at supply + 2 diode drops, the excess through winding and source;
+ * load = (2 - efficiency) x braking drive + Coulomb + viscous. */
+static double coasting_steady_speed_rad_s(const ax12_plant_t *s, double load_nm)
+{
+    const ax12_plant_params_t *p = &s->params;
+    const double supply_v = p->supply.source_v - p->supply.source_r_ohm * p->supply.standby_a;
+    const double clamp_v = supply_v + 2.0 * p->bridge.diode_v;
+    const double kt_out = p->motor.kt_nm_a * p->gearbox.ratio;
+    const double r_loop = ax12_motor_resistance_ohm(&p->motor, ax12_plant_winding_temp_c(s)) +
+                          p->supply.source_r_ohm;
+    const double d0 = kt_out * clamp_v / r_loop;
+    const double d1 = kt_out * kt_out / r_loop;
+    const double share = 2.0 - p->gearbox.efficiency;
+    const double coulomb_nm =
+        p->gearbox.coulomb_nm + p->gearbox.ratio * ax12_motor_friction_nm(&p->motor);
+    const double sign = load_nm > 0.0 ? 1.0 : -1.0;
+    return sign * (share * d0 + fabs(load_nm) - coulomb_nm) / (share * d1 + p->gearbox.viscous_nm_s_rad);
+}
+
 /* ---- the manual's figures ---- */
 
 static void stall_torque_at_7v_is_12_kgf_cm_within_5_pct(void **state)
@@ -186,7 +206,7 @@ static void back_driving_a_powered_servo_fights_gear_friction_too(void **state)
     const ax12_plant_params_t *p = &s.params;
     const double kt_out = p->motor.kt_nm_a * p->gearbox.ratio;
     const double r_loop =
-        ax12_motor_resistance_ohm(&p->motor, ax12_plant_winding_temp_c(&s)) + p->bridge_r_ohm;
+        ax12_motor_resistance_ohm(&p->motor, ax12_plant_winding_temp_c(&s)) + p->bridge.on_r_ohm;
     const double d0 = kt_out * 10.0 / r_loop;
     const double d1 = kt_out * kt_out / r_loop;
     const double share = 2.0 - p->gearbox.efficiency;
@@ -195,6 +215,74 @@ static void back_driving_a_powered_servo_fights_gear_friction_too(void **state)
     const double w = (share * d0 - load_nm + coulomb_nm) / (share * d1 + p->gearbox.viscous_nm_s_rad);
     assert_true(w < -0.5);
     assert_within_pct(ax12_plant_speed_rad_s(&s), w, 2.0);
+}
+
+static void coasting_servo_under_a_load_brakes_through_its_body_diodes(void **state)
+{
+    (void)state;
+    const double loads_nm[] = {1.0, -3.0, 0.3};
+    for (size_t i = 0; i < sizeof loads_nm / sizeof loads_nm[0]; i++) {
+        ax12_plant_t s = given_servo(9.6, 0.1);
+        const ax12_plant_params_t *p = &s.params;
+        given_load(&s, ax12_load_constant(loads_nm[i]));
+        run_for(&s, 0.0, 3.0, 1e-3);
+        const double w = ax12_plant_speed_rad_s(&s);
+        assert_within_pct(w, coasting_steady_speed_rad_s(&s, loads_nm[i]), 1.0);
+        /* the motor returns current to the supply: the terminal rises above its idle voltage */
+        const double i_a = ax12_plant_motor_current_a(&s);
+        assert_true(i_a * w < 0.0);
+        assert_true(ax12_plant_supply_current_a(&s) < p->supply.standby_a);
+        assert_true(ax12_plant_terminal_v(&s) >
+                    p->supply.source_v - p->supply.source_r_ohm * p->supply.standby_a);
+        /* power: what the back-EMF gives = what reaches the connector + diodes + winding (the
+         * winding's resistance as of the step's start: 0.01 %) */
+        const double emf_v = p->motor.kt_nm_a * p->gearbox.ratio * w;
+        const double r_w = ax12_motor_resistance_ohm(&p->motor, ax12_plant_winding_temp_c(&s));
+        assert_within_pct(fabs(emf_v * i_a),
+                          fabs(i_a) * (ax12_plant_terminal_v(&s) + 2.0 * p->bridge.diode_v) +
+                              i_a * i_a * r_w,
+                          0.01);
+    }
+}
+
+static void coasting_servo_below_the_clamp_speed_draws_no_current(void **state)
+{
+    (void)state;
+    ax12_plant_t s = given_servo(9.6, 0.1);
+    const ax12_plant_params_t *p = &s.params;
+    const double clamp_rad_s =
+        (9.6 - 0.1 * p->supply.standby_a + 2.0 * p->bridge.diode_v) /
+        (p->motor.kt_nm_a * p->gearbox.ratio);
+    /* a load that turns it just below the clamp speed on friction alone */
+    const double coulomb_nm =
+        p->gearbox.coulomb_nm + p->gearbox.ratio * ax12_motor_friction_nm(&p->motor);
+    given_load(&s, ax12_load_constant(-(coulomb_nm + 0.9 * clamp_rad_s * p->gearbox.viscous_nm_s_rad)));
+    run_for(&s, 0.0, 20.0, 1e-3);
+    assert_within_pct(ax12_plant_speed_rad_s(&s), -0.9 * clamp_rad_s, 1.0);
+    assert_near(ax12_plant_motor_current_a(&s), 0.0, 0.0);
+    assert_near(ax12_plant_supply_current_a(&s), p->supply.standby_a, 1e-12);
+}
+
+static void coasting_heavy_arm_falls_no_faster_than_its_diodes_allow(void **state)
+{
+    (void)state;
+    const double horizontal = 150.0 * DEG_RAD;
+    const double mgl = 2.0 * AX12_GRAVITY_M_S2 * 0.1;
+    ax12_plant_t s = given_servo(9.6, 0.1);
+    given_load(&s, ax12_load_arm(2.0, 0.1, horizontal));
+    ax12_plant_set_angle_rad(&s, horizontal + PI / 2.0 - 0.05); /* nearly straight up */
+    /* no faster than the steady speed under the arm's largest torque */
+    const double bound_rad_s = fabs(coasting_steady_speed_rad_s(&s, -mgl));
+    double fastest = 0.0;
+    for (int i = 0; i < 10000; i++) {
+        ax12_plant_step(&s, 0.0, 1e-3);
+        fastest = fmax(fastest, fabs(ax12_plant_speed_rad_s(&s)));
+    }
+    assert_true(fastest > 0.5 * bound_rad_s);
+    assert_true_msg(fastest <= bound_rad_s, "%.3f rad/s, above %.3f", fastest, bound_rad_s);
+    assert_near(ax12_plant_speed_rad_s(&s), 0.0, 0.0);
+    assert_near(ax12_plant_angle_rad(&s), horizontal - PI / 2.0,
+                asin(coast_breakaway_nm(&s) / mgl) + 1e-6);
 }
 
 static void output_gains_no_speed_with_duty_zero(void **state)
@@ -258,7 +346,7 @@ static void driven_spring_settles_where_the_drive_meets_the_spring(void **state)
     const ax12_plant_params_t *p = &s.params;
     const double kt_out = p->motor.kt_nm_a * p->gearbox.ratio;
     const double r_loop = ax12_motor_resistance_ohm(&p->motor, ax12_plant_winding_temp_c(&s)) +
-                          p->bridge_r_ohm;
+                          p->bridge.on_r_ohm;
     const double drive_nm = kt_out * duty * 10.0 / r_loop;
     const double out_nm = p->gearbox.efficiency * drive_nm - p->gearbox.coulomb_nm -
                           p->gearbox.ratio * ax12_motor_friction_nm(&p->motor);
@@ -439,6 +527,9 @@ int main(void)
         cmocka_unit_test(one_long_step_lands_where_many_short_ones_do),
         cmocka_unit_test(zero_or_negative_step_changes_nothing),
         cmocka_unit_test(nan_duty_coasts),
+        cmocka_unit_test(coasting_servo_under_a_load_brakes_through_its_body_diodes),
+        cmocka_unit_test(coasting_servo_below_the_clamp_speed_draws_no_current),
+        cmocka_unit_test(coasting_heavy_arm_falls_no_faster_than_its_diodes_allow),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -1,4 +1,4 @@
-/* Each plant module alone: motor, gearbox, load, pot, supply, thermal. */
+/* Each plant module alone: bridge, motor, gearbox, load, pot, supply, thermal. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -13,6 +13,59 @@ static const ax12_plant_params_t *defaults(void)
     static ax12_plant_params_t p;
     p = ax12_plant_params_default();
     return &p;
+}
+
+/* ---- bridge ---- */
+
+static void driven_bridge_puts_duty_times_supply_across_the_motor(void **state)
+{
+    (void)state;
+    const ax12_bridge_params_t *b = &defaults()->bridge;
+    for (double emf = -20.0; emf <= 20.0; emf += 5.0) { /* whatever the back-EMF */
+        const ax12_bridge_path_t path = ax12_bridge_path(b, -0.5, 9.6, 0.2, emf);
+        assert_false(path.open);
+        assert_false(path.diodes);
+        assert_near(path.path_v, -4.8, 1e-12);
+        assert_near(path.r_ohm, b->on_r_ohm + 0.25 * 0.2, 1e-12);
+        assert_near(path.supply_share, -0.5, 0.0);
+        assert_near(ax12_bridge_loss_w(b, &path, 2.0), 4.0 * b->on_r_ohm, 1e-12);
+    }
+}
+
+static void coasting_bridge_is_open_up_to_supply_plus_two_diode_drops(void **state)
+{
+    (void)state;
+    const ax12_bridge_params_t *b = &defaults()->bridge;
+    const double clamp_v = 9.6 + 2.0 * b->diode_v;
+    assert_near(ax12_bridge_clamp_v(b, 9.6), clamp_v, 1e-12);
+    assert_true(b->diode_v >= 0.5 && b->diode_v <= 1.2); /* a MOSFET body diode near 1 A */
+    const double emfs[] = {0.0, 5.0, -9.6, 9.6 + b->diode_v, -clamp_v, clamp_v};
+    for (size_t i = 0; i < sizeof emfs / sizeof emfs[0]; i++) {
+        const ax12_bridge_path_t path = ax12_bridge_path(b, 0.0, 9.6, 0.2, emfs[i]);
+        assert_true_msg(path.open, "a back-EMF of %g V makes a current", emfs[i]);
+        assert_near(ax12_bridge_loss_w(b, &path, 0.0), 0.0, 0.0);
+    }
+}
+
+static void coasting_bridge_clamps_a_higher_back_emf_through_its_body_diodes(void **state)
+{
+    (void)state;
+    const ax12_bridge_params_t *b = &defaults()->bridge;
+    const double clamp_v = 9.6 + 2.0 * b->diode_v;
+    for (double sign = -1.0; sign <= 1.0; sign += 2.0) {
+        const ax12_bridge_path_t path = ax12_bridge_path(b, 0.0, 9.6, 0.2, sign * (clamp_v + 0.01));
+        assert_false(path.open);
+        assert_true(path.diodes);
+        assert_near(path.path_v, sign * clamp_v, 1e-12); /* the terminals held at the clamp */
+        assert_near(path.r_ohm, 0.2, 0.0);                /* no MOSFET conducts: the source alone */
+        assert_near(path.supply_share, sign, 0.0);        /* the whole current goes to the supply */
+        assert_near(path.drop_v, 2.0 * b->diode_v, 0.0);
+        /* the current opposes the back-EMF: it flows into the supply */
+        const double motor_a = (path.path_v - sign * (clamp_v + 1.0)) / (7.0 + path.r_ohm);
+        assert_true(motor_a * sign < 0.0);
+        assert_true(path.supply_share * motor_a < 0.0);
+        assert_near(ax12_bridge_loss_w(b, &path, motor_a), 2.0 * b->diode_v * fabs(motor_a), 1e-12);
+    }
 }
 
 /* ---- motor ---- */
@@ -238,6 +291,9 @@ static void thermal_step_is_stable_for_huge_steps(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(driven_bridge_puts_duty_times_supply_across_the_motor),
+        cmocka_unit_test(coasting_bridge_is_open_up_to_supply_plus_two_diode_drops),
+        cmocka_unit_test(coasting_bridge_clamps_a_higher_back_emf_through_its_body_diodes),
         cmocka_unit_test(winding_resistance_rises_with_copper_tempco),
         cmocka_unit_test(motor_current_is_voltage_less_back_emf_over_resistance),
         cmocka_unit_test(motor_parameters_are_those_of_a_small_dc_motor),

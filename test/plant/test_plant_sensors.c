@@ -129,7 +129,7 @@ static void terminal_voltage_sags_with_stall_current(void **state)
     /* the stall current is what the sagging terminal drives through the loop */
     const ax12_plant_params_t *p = &s.params;
     const double r_loop =
-        ax12_motor_resistance_ohm(&p->motor, ax12_plant_winding_temp_c(&s)) + p->bridge_r_ohm;
+        ax12_motor_resistance_ohm(&p->motor, ax12_plant_winding_temp_c(&s)) + p->bridge.on_r_ohm;
     assert_within_pct(ax12_plant_motor_current_a(&s), ax12_plant_terminal_v(&s) / r_loop, 0.5);
 }
 
@@ -154,14 +154,26 @@ static void overhauling_load_returns_current_to_the_supply(void **state)
     assert_true(ax12_plant_terminal_v(&s) > 9.6);
 }
 
-static void back_driven_shaft_draws_no_current_with_torque_off(void **state)
+static void back_driven_shaft_with_torque_off_returns_current_past_the_diodes_clamp(void **state)
 {
     (void)state;
     ax12_plant_t s = given_servo(9.6, 0.1);
-    given_load(&s, ax12_load_constant(1.0));
-    run_for(&s, 0.0, 0.5, 1e-3);
-    assert_true(ax12_plant_speed_rad_s(&s) > 1.0);
+    const ax12_plant_params_t *p = &s.params;
+    const double idle_v = 9.6 - 0.1 * p->supply.standby_a;
+    const double clamp_rad_s =
+        (idle_v + 2.0 * p->bridge.diode_v) / (p->motor.kt_nm_a * p->gearbox.ratio);
+    given_load(&s, ax12_load_constant(0.09)); /* turns it, slower than the clamp speed */
+    run_for(&s, 0.0, 1.5, 1e-3);
+    assert_true(ax12_plant_speed_rad_s(&s) > 1.0 && ax12_plant_speed_rad_s(&s) < clamp_rad_s);
     assert_near(ax12_plant_motor_current_a(&s), 0.0, 0.0);
+    assert_near(ax12_plant_terminal_v(&s), idle_v, 1e-12);
+    given_load(&s, ax12_load_constant(1.0)); /* faster: the body diodes conduct */
+    run_for(&s, 0.0, 0.5, 1e-3);
+    assert_true(ax12_plant_speed_rad_s(&s) > clamp_rad_s);
+    assert_true(ax12_plant_motor_current_a(&s) < -0.1);
+    assert_true(ax12_plant_supply_current_a(&s) < 0.0);
+    assert_true(ax12_plant_terminal_v(&s) > idle_v);
+    assert_within_pct(ax12_plant_supply_sense_mv(&s), ax12_plant_terminal_v(&s) * 1000.0 / 5.0, 1e-9);
 }
 
 /* ---- temperature ---- */
@@ -242,7 +254,7 @@ int main(void)
         cmocka_unit_test(terminal_voltage_sags_with_stall_current),
         cmocka_unit_test(half_duty_draws_half_the_motor_current_from_the_supply),
         cmocka_unit_test(overhauling_load_returns_current_to_the_supply),
-        cmocka_unit_test(back_driven_shaft_draws_no_current_with_torque_off),
+        cmocka_unit_test(back_driven_shaft_with_torque_off_returns_current_past_the_diodes_clamp),
         cmocka_unit_test(temperature_sensor_reads_500_mv_plus_10_mv_per_degree),
         cmocka_unit_test(stalled_servo_reaches_85_degrees_within_minutes),
         cmocka_unit_test(hot_servo_cools_to_its_idle_temperature_over_minutes),

@@ -1,8 +1,8 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* The servo itself: the firmware ELF in simavr driving the plant (model/plant), seen only
  * through the protocol (and the LED pin PB5). Goal moves and Moving, steady-state error,
- * compliance slopes 17 and 32 alike, wheel mode both ways, every alarm (trip, LED blink,
- * shutdown, recovery) in both profiles. All bounded by simulated time (docs/control.md). */
+ * compliance slopes 17 and 32 alike, wheel mode both ways, a torque-off servo back-driven by a
+ * load, every alarm (trip, LED blink, shutdown, recovery) in both profiles. All bounded by simulated time (docs/control.md). */
 #include <math.h>
 #include <setjmp.h>
 #include <stdarg.h>
@@ -243,6 +243,94 @@ static void test_wheel_mode_both_directions(void **state) {
   run_ms(&r, 1000);
   assert_int_equal(read_u8(&r, CT_ADDR_MOVING), 0);
   assert_int_equal(read_u16(&r, CT_ADDR_PRESENT_SPEED) & 0x3FFu, 0);
+  rig_close(&r);
+}
+
+/* ---- torque off under a load ---- */
+
+/* Steady output speed of a coasting servo back-driven by a constant load_nm beyond friction
+ * (model/plant/bridge.h): the back-EMF above supply + 2 body-diode drops drives current back
+ * into the supply through winding and source; load = (2 - efficiency) x braking drive +
+ * Coulomb + viscous (docs/plant.md). */
+static double coasting_speed_rad_s(const ax12_plant_t *plant, double load_nm) {
+  const ax12_plant_params_t *p = &plant->params;
+  const double clamp_v = p->supply.source_v - p->supply.source_r_ohm * p->supply.standby_a + 2.0 * p->bridge.diode_v;
+  const double kt_out = p->motor.kt_nm_a * p->gearbox.ratio;
+  const double r_loop =
+      ax12_motor_resistance_ohm(&p->motor, ax12_plant_winding_temp_c(plant)) + p->supply.source_r_ohm;
+  const double share = 2.0 - p->gearbox.efficiency;
+  const double coulomb_nm = p->gearbox.coulomb_nm + p->gearbox.ratio * ax12_motor_friction_nm(&p->motor);
+  const double sign = load_nm > 0.0 ? 1.0 : -1.0;
+  return sign * (share * kt_out * clamp_v / r_loop + fabs(load_nm) - coulomb_nm) /
+         (share * kt_out * kt_out / r_loop + p->gearbox.viscous_nm_s_rad);
+}
+
+/* docs/dashboard.md's `world --servo 2 --load-torque -3` on a servo whose torque is off: the
+ * firmware leaves the bridge coasting (Timer0 stopped, both inputs low) and the output, dragged
+ * CW, turns at the steady speed the body diodes' braking allows, returning current to the
+ * supply; Present Position wraps over the pot's track as the shaft turns. Open terminals
+ * would let it spin at (3 - friction) / viscous = 730 rad/s: tens of thousands of degrees a
+ * second. */
+static void test_torque_off_under_a_constant_load_turns_at_the_body_diodes_braking_speed(void **state) {
+  (void)state;
+  rig_t r;
+  rig_open(&r, "ax12", NULL);
+  const ax12_load_t load = ax12_load_constant(-3.0);
+  ax12_plant_set_load(&r.servo->plant, &load);
+  const double start_deg = ax12_plant_angle_deg(&r.servo->plant);
+  run_ms(&r, 1000);
+  const double first_second_deg = ax12_plant_angle_deg(&r.servo->plant) - start_deg;
+  assert_int_equal(read_u8(&r, CT_ADDR_TORQUE_ENABLE), 0);
+  assert_false(pwm_timer_running(&r));
+  assert_true(board_pwm_duty(&r.servo->board) == 0.0);
+  uint16_t lowest = 1023;
+  uint16_t highest = 0;
+  for (int i = 0; i < 100; i++) { /* a second of Present Position, every 10 ms */
+    const uint16_t position = read_u16(&r, CT_ADDR_PRESENT_POSITION);
+    lowest = position < lowest ? position : lowest;
+    highest = position > highest ? position : highest;
+    run_ms(&r, 8);
+  }
+  const ax12_plant_t *plant = &r.servo->plant;
+  const double w = ax12_plant_speed_rad_s(plant);
+  const double expected = coasting_speed_rad_s(plant, -3.0);
+  assert_true(fabs(w - expected) <= 0.02 * fabs(expected));
+  assert_true(expected < -10.0 && expected > -15.0); /* 95-145 rpm: a few turns a second */
+  assert_true(first_second_deg < 0.0 && first_second_deg > -1.1 * fabs(expected) * 180.0 / M_PI);
+  assert_true(ax12_plant_motor_current_a(plant) > 0.3);             /* CCW current: it brakes */
+  assert_true(ax12_plant_supply_current_a(plant) < 0.0);            /* into the supply */
+  assert_true(ax12_plant_terminal_v(plant) > plant->params.supply.source_v);
+  assert_true(lowest < 100 && highest > 900); /* a turn a second: the pot's whole track */
+  print_message("torque off under -3 N m: %.2f rad/s (%.0f rpm; the model's %.2f), %.0f deg in the first second, "
+                "%.2f A into the supply\n",
+                w, w * 60.0 / (2.0 * M_PI), expected, first_second_deg, -ax12_plant_supply_current_a(plant));
+  rig_close(&r);
+}
+
+/* A heavy arm released near upright with torque off: it falls no faster than the diodes'
+ * braking allows under its largest torque, swings, and comes to rest hanging. */
+static void test_torque_off_a_heavy_arm_falls_braked_and_rests_hanging(void **state) {
+  (void)state;
+  plant_options_t world;
+  plant_options_default(&world);
+  const double horizontal_rad = 150.0 * M_PI / 180.0;
+  world.load = ax12_load_arm(2.0, 0.1, horizontal_rad);
+  rig_t r;
+  rig_open(&r, "ax12", &world);
+  ax12_plant_set_angle_rad(&r.servo->plant, horizontal_rad + M_PI / 2.0 - 0.05); /* nearly up */
+  const double mgl = 2.0 * AX12_GRAVITY_M_S2 * 0.1;
+  const double bound = fabs(coasting_speed_rad_s(&r.servo->plant, -mgl));
+  double fastest = 0.0;
+  for (int ms = 0; ms < 6000; ms++) {
+    run_ms(&r, 1);
+    fastest = fmax(fastest, fabs(ax12_plant_speed_rad_s(&r.servo->plant)));
+  }
+  assert_true(fastest > 0.5 * bound && fastest <= bound);
+  assert_true(ax12_plant_speed_rad_s(&r.servo->plant) == 0.0);
+  const double hanging_deg = (horizontal_rad - M_PI / 2.0) * 180.0 / M_PI;
+  assert_true(fabs(ax12_plant_angle_deg(&r.servo->plant) - hanging_deg) < 5.0);
+  print_message("arm of 2 kg at 0.1 m, torque off: fastest %.2f rad/s (bound %.2f), rests at %.1f deg (hanging %.0f)\n",
+                fastest, bound, ax12_plant_angle_deg(&r.servo->plant), hanging_deg);
   rig_close(&r);
 }
 
@@ -590,6 +678,8 @@ int main(void) {
       cmocka_unit_test(test_moving_speed_cruise),
       cmocka_unit_test(test_slopes_17_and_32_identical),
       cmocka_unit_test(test_wheel_mode_both_directions),
+      cmocka_unit_test(test_torque_off_under_a_constant_load_turns_at_the_body_diodes_braking_speed),
+      cmocka_unit_test(test_torque_off_a_heavy_arm_falls_braked_and_rests_hanging),
       cmocka_unit_test(test_voltage_alarm_ax12),
       cmocka_unit_test(test_voltage_alarm_ax12a),
       cmocka_unit_test(test_overheating_alarm_ax12),

@@ -15,6 +15,7 @@ const uint8_t *eeprom_model_boot(eeprom_model_t *m) {
   m->steps_left = 0;
   m->active_slot = 0;
   m->active_sequence = 0;
+  m->pending = false; /* GPIOR0 is cleared by a reset too */
   const uint8_t newest = dxl_image_newest_slot(m->image);
   if (newest == DXL_IMAGE_NO_SLOT) {
     m->active_slot = 1; /* the first write goes to slot 0 */
@@ -27,24 +28,33 @@ const uint8_t *eeprom_model_boot(eeprom_model_t *m) {
 }
 
 void eeprom_model_persist(eeprom_model_t *m, const uint8_t *eeprom_area) {
-  m->slot_index = (uint8_t)(m->active_slot ^ 1u);
-  dxl_image_slot_build(m->slot_bytes, eeprom_area, (uint8_t)(m->active_sequence + 1u));
-  m->steps_left = DXL_IMAGE_SLOT_BYTES;
+  memcpy(m->pending_area, eeprom_area, CT_EEPROM_SIZE);
+  m->pending = true;
 }
 
-bool eeprom_model_busy(const eeprom_model_t *m) { return m->steps_left != 0; }
+bool eeprom_model_busy(const eeprom_model_t *m) { return m->steps_left != 0 || m->pending; }
 
 bool eeprom_model_service(eeprom_model_t *m, const uint8_t *torn) {
+  if (m->steps_left == 0) {
+    if (!m->pending) {
+      return false;
+    }
+    m->pending = false;
+    m->slot_index = (uint8_t)(m->active_slot ^ 1u);
+    dxl_image_slot_build(m->slot_bytes, m->pending_area, (uint8_t)(m->active_sequence + 1u));
+    m->steps_left = DXL_IMAGE_SLOT_BYTES;
+  }
   while (m->steps_left != 0) {
     const uint8_t offset = dxl_image_write_offset((uint8_t)(DXL_IMAGE_SLOT_BYTES - m->steps_left--));
     uint8_t *const addr = eeprom_addr(m, m->slot_index, offset);
+    const uint8_t value = m->slot_bytes[offset];
     if (m->steps_left == 0) {
       /* nvm.c: the sequence number (written now, or already right): this slot is in use. */
       m->active_slot = m->slot_index;
-      m->active_sequence = m->slot_bytes[DXL_IMAGE_OFS_SEQUENCE];
+      m->active_sequence = value;
     }
-    if (*addr != m->slot_bytes[offset]) {
-      *addr = torn != NULL ? *torn : m->slot_bytes[offset];
+    if (*addr != value) {
+      *addr = torn != NULL ? *torn : value;
       return true;
     }
   }
@@ -53,8 +63,8 @@ bool eeprom_model_service(eeprom_model_t *m, const uint8_t *torn) {
 
 unsigned eeprom_model_flush(eeprom_model_t *m) {
   unsigned written = 0;
-  while (eeprom_model_service(m, NULL)) {
-    written++;
+  while (eeprom_model_busy(m)) {
+    written += eeprom_model_service(m, NULL) ? 1u : 0u;
   }
   return written;
 }

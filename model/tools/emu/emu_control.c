@@ -230,7 +230,9 @@ static void on_line(void *ctx, control_socket_t *cs, unsigned client, char *line
     send_error(c, client, NULL, "a request is one JSON object with \"op\" per line");
   } else if (strcmp(op->valuestring, "status") == 0) {
     const bool table = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(req, "table"));
-    send_json(c, client, emu_status_json(&c->servos, false, table, NULL));
+    cJSON *status = emu_status_json(&c->servos, false, table, NULL);
+    cJSON_AddStringToObject(status, "device", c->device);
+    send_json(c, client, status);
   } else if (strcmp(op->valuestring, "world") == 0) {
     char err[256];
     cJSON *answer = emu_world_request(&c->servos, req, err, sizeof err);
@@ -254,6 +256,7 @@ int emu_control_open(emu_control_t *c, const char *path, world_t *world, pty_bri
                      bus_monitor_t **monitor, char *err, size_t err_len) {
   memset(c, 0, sizeof(*c));
   c->servos = (emu_servos_t){.world = world, .worlds = worlds, .slot_ids = slot_ids};
+  c->device = pty->device;
   servo_probe_locate(elf_path, &c->servos.map);
   if (emu_bus_master_open(&c->master, world, pty, &c->servos.map) != 0) {
     snprintf(err, err_len, "control socket: no room on the bus for its master");

@@ -2,7 +2,8 @@
 /* `ax12-emu serve`'s control protocol on its control socket (control_socket.h): what the live
  * dashboard and `ax12 world` ask of a running emulator (docs/dashboard.md "The control
  * socket"). One JSON object a line each way:
- *   {"op":"status"}                            every servo now (servo_probe.h), its world
+ *   {"op":"status"}                            every servo now (servo_probe.h), its world, and
+ *                                              "device": the pty the clients open
  *   {"op":"status","table":true}               ... with each control table
  *   {"op":"world","id":3,"set":{"load-torque":1.2}}   change servo 3's world (or "id":"all");
  *                                              the names and ranges of the command line's
@@ -52,6 +53,7 @@ typedef struct {
   bool filtered[CONTROL_MAX_CLIENTS];       /* telemetry of only_slots[client] only */
   bool only_slots[CONTROL_MAX_CLIENTS][256];
   double next_poll_us; /* wall clock */
+  const char *device;  /* the pty's path (pty_bridge_t.device) */
 } emu_control_t;
 
 /* Opens the socket at path. worlds and slot_ids: one per servo of the world, kept by the

@@ -10,28 +10,14 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "boot_image.h"
 #include "bus_noise.h"
 #include "elf_check.h"
-#include "elf_flash.h"
+#include "emu_firmware_choice.h"
 #include "state_dir.h"
 
 #ifndef AX12_DEFAULT_FIRMWARE_DIR
 #define AX12_DEFAULT_FIRMWARE_DIR "firmware"
 #endif
-
-/* True when the application ELF (checked) ends below the bootloader's application record:
- * built to sit beside the bootloader (docs/bootloader.md "Flash layout"). */
-static bool leaves_boot_room(const char *elf, const char *mcu) {
-  const uint32_t flash_bytes = elf_mcu_flash_bytes(mcu);
-  uint8_t *const flash = malloc(flash_bytes ? flash_bytes : 1u);
-  uint32_t first = 0;
-  uint32_t end = 0;
-  char err[256];
-  const bool read = flash && flash_bytes && elf_flash_read(elf, flash, flash_bytes, &first, &end, err, sizeof(err));
-  free(flash);
-  return read && end <= boot_record_address(boot_section_start(flash_bytes));
-}
 
 static const char usage_text[] =
     "usage: ax12-emu serve [options]\n"
@@ -57,7 +43,8 @@ static const char usage_text[] =
     "                      every reset starts (BOOTRST), with the application's record\n"
     "                      (docs/bootloader.md); its updates over the bus are kept in\n"
     "                      servo-<ID>.flash (default: <firmware-dir>/ax12-boot-<mcu>.elf\n"
-    "                      when it exists and the application leaves it room; else none)\n"
+    "                      when it exists, --elf is this project's application and ends\n"
+    "                      below the application record; else none)\n"
     "  --adapter KIND[:MS] the USB serial adapter between the client and the bus:\n"
     "                      u2d2 (default; FT232H class, high speed), usb2dynamixel (FT232R,\n"
     "                      full speed) or wire (no adapter: each byte as it leaves the wire).\n"
@@ -451,12 +438,7 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
     fprintf(stderr, "ax12-emu: %s\n", err);
     return 1;
   }
-  if (!o->bootloader_given) {
-    snprintf(o->bootloader, sizeof(o->bootloader), "%s/ax12-boot-%s.elf", o->firmware_dir, o->mcu);
-    if (access(o->bootloader, F_OK) != 0 || !leaves_boot_room(o->elf, o->mcu)) {
-      o->bootloader[0] = '\0'; /* the application alone, reset at 0 */
-    }
-  }
+  emu_firmware_choose_bootloader(o);
   if (o->bootloader[0] && access(o->bootloader, R_OK) != 0) {
     fprintf(stderr, "ax12-emu: bootloader ELF %s: %s (build the firmware, or pass --bootloader none)\n",
             o->bootloader, strerror(errno));

@@ -14,6 +14,7 @@
 #include "emu_control.h"
 #include "emu_dashboard.h"
 #include "emu_debug_tools.h"
+#include "emu_firmware_choice.h"
 #include "emu_state_files.h"
 #include "emu_stats.h"
 #include "emu_stop_signal.h"
@@ -43,6 +44,7 @@ int emu_serve(const serve_options_t *o) {
     world_destroy(world);
     return 1;
   }
+  emu_firmware_say(o);
   (void)bus_set_noise(&world->bus, o->bit_error_rate, o->noise_seed); /* validated by the parser */
   emu_state_locks_t locks;
   if (!emu_state_files_add_servos(world, o, &locks)) {

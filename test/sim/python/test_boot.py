@@ -5,8 +5,8 @@ the boot section erases and writes the page at 0x1000 when it is blank, then tur
 receiver on, so `ready:` comes only after the write; boot_app_1.elf and boot_app_2.elf are two
 builds of one application. Checks: a SIGKILL right after `ready:` leaves the written page in
 the file (the end of the step of the write persisted it); the same build runs that flash again;
-another build drops it with one line on stderr; the default bootloader of --firmware-dir; bad
---bootloader input."""
+another build drops it with one line on stderr; the default bootloader of --firmware-dir (in
+front of this project's application, not of another program); bad --bootloader input."""
 import os
 import shutil
 import signal
@@ -18,6 +18,7 @@ import pytest
 from conftest import EMU, Emulator
 
 BOOT_DIR = os.environ.get("AX12_BOOT_DIR", "")
+PROJECT_APP = os.path.join(os.environ.get("AX12_FIRMWARE_DIR", ""), "ax12-ax12-atmega328p.elf")
 FLASH_BYTES = 32768
 HEADER_BYTES = 24
 TEST_PAGE = 0x1000
@@ -83,18 +84,39 @@ def test_the_bootloader_of_the_firmware_dir_is_the_default(tmp_path):
     firmware_dir = tmp_path / "fw"
     firmware_dir.mkdir()
     shutil.copy(elf("boot_spm.elf"), firmware_dir / "ax12-boot-atmega328p.elf")
+    shutil.copy(PROJECT_APP, firmware_dir / "ax12-ax12-atmega328p.elf")
     state = tmp_path / "state"
-    emu = serve(state, "boot_app_1.elf", "--firmware-dir", str(firmware_dir))
+    # this project's application (the ELF of --firmware-dir): the bootloader goes in front
+    emu = Emulator(["--mcu", "atmega328p", "--fast", "--state-dir", str(state), "--firmware-dir", str(firmware_dir),
+                    "--control", os.path.join(str(state), "c.sock")])
     assert emu.stop() == 0
-    assert "bootloader" in stderr_of(emu)
-    _, flash = read_flash(state / "servo-1.flash")
-    assert flash[TEST_PAGE:TEST_PAGE + 128] == PATTERN
+    said = stderr_of(emu)
+    assert "(ax12, atmega328p, bootloader)" in said and "not this project's application" not in said, said
 
     # --bootloader none: the application alone, from address 0 (it never uses SPM).
     state = tmp_path / "none"
     emu = serve(state, "boot_app_1.elf", "--firmware-dir", str(firmware_dir), "--bootloader", "none")
     assert emu.stop() == 0
     assert not (state / "servo-1.flash").exists()
+
+    # a program that is not this project's application runs alone too, and serve says so once
+    state = tmp_path / "foreign"
+    emu = serve(state, "boot_app_1.elf", "--firmware-dir", str(firmware_dir))
+    assert emu.stop() == 0
+    assert not (state / "servo-1.flash").exists()
+    said = stderr_of(emu)
+    assert "(ax12, atmega328p) on" in said, said
+    assert said.count("is not this project's application: it runs without the bootloader") == 1, said
+    assert said.count("has no .mmcu section: it runs as an atmega328p at 16 MHz") == 1, said
+
+    # asked for, the bootloader goes in front of it
+    state = tmp_path / "asked"
+    emu = serve(state, "boot_app_1.elf", "--bootloader", str(firmware_dir / "ax12-boot-atmega328p.elf"))
+    assert emu.stop() == 0
+    said = stderr_of(emu)
+    assert "(ax12, atmega328p, bootloader)" in said, said
+    _, flash = read_flash(state / "servo-1.flash")
+    assert flash[TEST_PAGE:TEST_PAGE + 128] == PATTERN
 
 
 @pytest.mark.parametrize("bootloader, status, message", [

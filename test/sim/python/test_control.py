@@ -81,6 +81,35 @@ def test_world_options_per_servo_at_start_and_at_run_time(emulator, tmp_path):
                  "Present Voltage near 75 (7.5 V) on servo 3")
 
 
+def test_a_servo_with_torque_off_dragged_by_a_load_is_braked_by_its_bridge(emulator, tmp_path):
+    """docs/dashboard.md's `scripts/ax12 world --servo 2 --load-torque -3` on servos whose torque
+    is off: the motor's back-EMF, clamped by the H-bridge's body diodes at the supply plus two
+    diode drops, brakes the output (docs/plant.md "Electrical model"). Servo 2 turns CW at a
+    steady speed above the 62 rpm where the diodes start to conduct and below 150 rpm (the
+    model: 117 rpm), returning current to the supply, where open terminals would let it spin
+    at 7000 rpm (tens of thousands of degrees a second on the dashboard). The others stay put."""
+    emulator("--realtime", "--ids", "1-3", "--state-dir", str(tmp_path))
+    done = world("--state-dir", str(tmp_path), "--servo", "2", "--load-torque", "-3")
+    assert done.returncode == 0, done.stderr
+    with ax12_control.Control(ax12_control.default_socket_path(str(tmp_path))) as control:
+        time.sleep(0.5)  # up to speed: the mechanical time constant is about 20 ms
+        first = control.request("status")
+        time.sleep(1.0)
+        last = control.request("status")
+    seconds = (last["time_us"] - first["time_us"]) / 1e6
+    assert seconds > 0.2, seconds
+    s2 = servo(last, 2)
+    assert s2["torque_enable"] == 0 and s2["duty"] == 0
+    deg_per_s = (s2["angle_deg"] - servo(first, 2)["angle_deg"]) / seconds
+    assert -150 * 6 < deg_per_s < -62 * 6, deg_per_s  # rpm x 6 = deg/s
+    assert -150 < s2["speed_rpm"] < -62, s2["speed_rpm"]
+    assert s2["motor_current_a"] > 0.3, s2  # opposing the motion: braking
+    assert s2["supply_v"] > 9.6, s2  # the current goes back into the supply
+    for slot in (1, 3):
+        assert abs(servo(last, slot)["angle_deg"] - 150.0) < 1.0
+        assert servo(last, slot)["speed_rpm"] == 0
+
+
 def test_world_refuses_bad_input_and_changes_nothing(emulator, tmp_path):
     emulator("--realtime", "--ids", "1,2", "--state-dir", str(tmp_path))
     sock = ax12_control.default_socket_path(str(tmp_path))
