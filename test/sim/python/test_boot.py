@@ -59,7 +59,7 @@ def test_the_flash_written_by_spm_survives_sigkill_and_is_dropped_for_another_bu
     # The record the emulator wrote below the boot section (0x7E00): the application's last
     # address and its check value (firmware/boot/boot_image.h).
     last = int.from_bytes(flash[0x7DFC:0x7DFE], "little")
-    assert 0 < last < 0x7DFC and flash[last + 1:0x7DFC] == b"\xff" * (0x7DFC - last - 1)
+    assert 0 < last < TEST_PAGE and flash[last + 1:TEST_PAGE] == b"\xff" * (TEST_PAGE - last - 1)
     sum1 = sum2 = 0
     for byte in flash[:last + 1]:
         sum1 = (sum1 + byte) & 0xFF
