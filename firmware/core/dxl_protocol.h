@@ -21,9 +21,6 @@
 #define DXL_BOOTLOADER_KEY_1 0x4Fu /* 'O' */
 #define DXL_BOOTLOADER_KEY_2 0x4Fu /* 'O' */
 #define DXL_BOOTLOADER_KEY_3 0x54u /* 'T' */
-#define DXL_BOOTLOADER_KEY                                                                                 \
-  ((uint32_t)DXL_BOOTLOADER_KEY_0 | (uint32_t)DXL_BOOTLOADER_KEY_1 << 8 | (uint32_t)DXL_BOOTLOADER_KEY_2 << 16 | \
-   (uint32_t)DXL_BOOTLOADER_KEY_3 << 24)
 
 /* Error byte of a status packet (docs/policy.md "Error byte"). Conditions hold in every reply while
  * true; events appear only in the reply to the offending packet. */

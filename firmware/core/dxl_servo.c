@@ -37,7 +37,13 @@
 #endif
 
 #if DXL_HAS_BOOTLOADER
-/* The four bytes at bytes as one little-endian number (one 32-bit compare of the key). */
+/* The key "BOOT" as one little-endian number (one 32-bit compare). Here, not in
+ * dxl_protocol.h, whose every #define is one line (python/CMakeLists.txt reads them). */
+#define BOOTLOADER_KEY_U32                                                                                        \
+  ((uint32_t)DXL_BOOTLOADER_KEY_0 | (uint32_t)DXL_BOOTLOADER_KEY_1 << 8 | (uint32_t)DXL_BOOTLOADER_KEY_2 << 16 | \
+   (uint32_t)DXL_BOOTLOADER_KEY_3 << 24)
+
+/* The four bytes at bytes as one little-endian number. */
 static uint32_t little_endian_u32(const uint8_t *bytes) {
   return (uint32_t)bytes[0] | (uint32_t)bytes[1] << 8 | (uint32_t)bytes[2] << 16 | (uint32_t)bytes[3] << 24;
 }
@@ -243,7 +249,7 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
     return plan_checked_write(s, r, DXL_ACTION_RUN_REGISTERED, s->reg_start, s->reg_data, s->reg_len);
 #if DXL_HAS_BOOTLOADER
   case DXL_INST_BOOTLOADER:
-    if (broadcast || count != 4u || little_endian_u32(params) != DXL_BOOTLOADER_KEY) {
+    if (broadcast || count != 4u || little_endian_u32(params) != BOOTLOADER_KEY_U32) {
       break;
     }
     r->after |= DXL_AFTER_BOOTLOADER;
