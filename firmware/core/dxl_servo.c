@@ -145,12 +145,12 @@ static void clear_registered(dxl_servo_t *s) {
 
 DXL_ONE_COPY void dxl_servo_power_up(dxl_servo_t *servo, const uint8_t *eeprom_area, uint16_t present_position) {
   memset(servo, 0, sizeof *servo);
-  ct_load_factory_eeprom(servo->table);
+  ct_load_factory_defaults(servo->table);
   if (eeprom_area != NULL) {
     memcpy(servo->table, eeprom_area, CT_EEPROM_SIZE);
     ct_repair_stored_eeprom(servo->table); /* model, version from this firmware; no item out of range */
   }
-  ct_load_power_up_ram(servo->table, present_position);
+  ct_set_power_up_ram(servo->table, present_position);
 }
 
 void dxl_servo_factory_reset(dxl_servo_t *servo) {
