@@ -1,18 +1,24 @@
 # Test-only firmware builds: the product's sources with one test option set (firmware/
-# CMakeLists.txt: AX12_INJECT_HANG, AX12_CONFORM_DEFECT, AX12_TEST_WITHOUT), built through
+# CMakeLists.txt: AX12_INJECT_HANG, AX12_CONFORM_DEFECT), built through
 # ExternalProject in their own folders so their ELFs never mix with the product's.
 #
 #   ax12_add_test_firmware(NAME <target> MCU <mcu> OPTION <cache variable> VALUE <value>
-#                          OUTPUT_DIR <dir> [PROFILE <profile>] [ARGS -D...])
-# builds <dir>/ax12-<profile>-<mcu>.elf (profile ax12 unless given); ARGS are further cache
-# settings of the firmware project (AX12_FIRMWARE_WITH_BOOTLOADER=ON).
+#                          OUTPUT_DIR <dir> [PROFILE <profile>])
+# builds <dir>/ax12-<profile>-<mcu>.elf (profile ax12 unless given).
 include_guard(GLOBAL)
 include(ExternalProject)
 
+include(${CMAKE_CURRENT_LIST_DIR}/../firmware/bootable_mcus.cmake)
+
 function(ax12_add_test_firmware)
-  cmake_parse_arguments(arg "" "NAME;MCU;OPTION;VALUE;OUTPUT_DIR;PROFILE" "ARGS" ${ARGN})
+  cmake_parse_arguments(arg "" "NAME;MCU;OPTION;VALUE;OUTPUT_DIR;PROFILE" "" ${ARGN})
   if(NOT arg_PROFILE)
     set(arg_PROFILE ax12)
+  endif()
+  # As the product's build of that part (cmake/firmware.cmake), whatever an older configure left.
+  set(with_bootloader OFF)
+  if(arg_MCU IN_LIST AX12_BOOTABLE_MCUS)
+    set(with_bootloader ON)
   endif()
   ExternalProject_Add(${arg_NAME}
     SOURCE_DIR ${CMAKE_SOURCE_DIR}/firmware
@@ -21,7 +27,7 @@ function(ax12_add_test_firmware)
                -DAVR_MCU=${arg_MCU}
                -DDXL_PROFILE_NAME=${arg_PROFILE}
                -D${arg_OPTION}=${arg_VALUE}
-               ${arg_ARGS}
+               -DAX12_FIRMWARE_WITH_BOOTLOADER=${with_bootloader}
                -DAX12_FIRMWARE_OUTPUT_DIR=${arg_OUTPUT_DIR}
     BUILD_ALWAYS ON
     INSTALL_COMMAND ""

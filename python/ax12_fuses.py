@@ -19,10 +19,8 @@ RECORD_BYTES = 4
 
 # The parts whose builds carry the bootloader (firmware/boot; cmake/firmware.cmake's
 # AX12_FIRMWARE_BOOTABLE_MCUS): their board gets the merged HEX (application, record,
-# bootloader) and BOOTRST programmed, and their application ends below the record. The
-# ATmega88's application does not fit the 7676 B that leaves yet (docs/firmware.md "Open"):
-# until it does, it runs alone and may use the whole flash.
-BOOTLOADER_MCUS = {"atmega328p"}
+# bootloader) and BOOTRST programmed, and their application ends below the record.
+BOOTLOADER_MCUS = {"atmega88", "atmega328p"}
 
 
 @dataclass(frozen=True)

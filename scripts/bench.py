@@ -346,17 +346,6 @@ def dashboard_cost(emu, fw, seconds, row):
         "/s", ">= 20", "dashboard_updates_idle")
 
 
-def bootable_apps(fw, build, mcu):
-    """Where the applications that sit beside mcu's bootloader are, and how the rows name them:
-    the product's (firmware/bootable_mcus.cmake), else the bootloader tests' build of the
-    ATmega88 without SYNC_WRITE and RESET (test/sim/CMakeLists.txt)."""
-    sys.path.insert(0, os.path.join(REPO, "python"))
-    import ax12_fuses
-    if mcu in ax12_fuses.BOOTLOADER_MCUS:
-        return fw, ""
-    return os.path.join(build, "test", "sim", "bootable-%s" % mcu), ", test build without SYNC_WRITE and RESET"
-
-
 def bootloader_figures(emu, fw, build, row):
     """Each part's bootloader size, and an update of one servo of three (the ax12a build over
     the ax12 one) with `scripts/ax12 flash` through ax12-emu's pty in real time behind the
@@ -368,11 +357,10 @@ def bootloader_figures(emu, fw, build, row):
         boot_elf = os.path.join(fw, "ax12-boot-%s.elf" % mcu)
         boot_flash, _ = avr_size(boot_elf)
         row("bootloader", "%s bootloader flash" % mcu, boot_flash, "B", "<= 512", "bootloader_flash_bytes_%s" % mcu)
-        apps, note = bootable_apps(fw, build, mcu)
-        image = os.path.join(apps, "ax12-ax12a-%s.hex" % mcu)
+        image = os.path.join(fw, "ax12-ax12a-%s.hex" % mcu)
         for baud_reg, bps, label in ((1, 1000000, "1 Mbps"), (34, 57600, "57 600 baud")):
             serve = Serve(emu, fw, "1,2,3", ("--mcu", mcu, "--baud", str(baud_reg), "--bootloader", boot_elf,
-                                             "--elf", os.path.join(apps, "ax12-ax12-%s.elf" % mcu)))
+                                             "--elf", os.path.join(fw, "ax12-ax12-%s.elf" % mcu)))
             try:
                 start = time.monotonic()
                 run = subprocess.run([sys.executable, os.path.join(REPO, "scripts", "ax12_flash.py"), "--build", build,
@@ -384,7 +372,7 @@ def bootloader_figures(emu, fw, build, row):
             if run.returncode != 0:
                 raise RuntimeError("scripts/ax12 flash failed: " + run.stdout + run.stderr)
             key = "bootloader_update_%s_%s_s" % (mcu, "1m" if bps == 1000000 else "57600")
-            row("bootloader", "%s: update of one servo at %s (%d B%s), wall" % (mcu, label, ax12_app_bytes(image), note),
+            row("bootloader", "%s: update of one servo at %s (%d B), wall" % (mcu, label, ax12_app_bytes(image)),
                 seconds, "s", "", key)
             row("bootloader", "  emulator speed / worst lag meanwhile",
                 "%.2fx / %.1f ms" % (stats.get("speed", 0), stats.get("worst_lag_ms", 0)), "", "1.00x real time")

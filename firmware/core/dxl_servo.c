@@ -255,7 +255,6 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
     r->after |= DXL_AFTER_BOOTLOADER;
     return 0;
 #endif
-#ifndef AX12_TEST_WITHOUT_SYNC_WRITE_AND_RESET /* test builds only (firmware/CMakeLists.txt) */
   case DXL_INST_RESET:
     if (count != 0) {
       break;
@@ -265,8 +264,6 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
     }
     r->action = DXL_ACTION_RESET;
     return 0;
-#endif
-#ifndef AX12_TEST_WITHOUT_SYNC_WRITE_AND_RESET
   case DXL_INST_SYNC_WRITE: {
     if (count < 2) {
       break;
@@ -303,7 +300,6 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
     }
     return plan_checked_write(s, r, DXL_ACTION_WRITE, start, own + 1, slice_data_len);
   }
-#endif
   default:
     break;
   }
@@ -360,11 +356,9 @@ void dxl_servo_prepare(const dxl_servo_t *servo, const dxl_packet_t *packet, dxl
     data = r->window_data;
     r->after = after_flags_of_write(start, len);
     break;
-#ifndef AX12_TEST_WITHOUT_SYNC_WRITE_AND_RESET
   case DXL_ACTION_RESET:
     r->after = DXL_AFTER_FACTORY_RESET | DXL_AFTER_APPLY_BAUD | DXL_AFTER_PERSIST;
     break;
-#endif
   default:
     break;
   }

@@ -1,8 +1,7 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """`scripts/ax12 flash` through the real path: ax12-emu serving three servos (IDs 1, 2, 3)
 with the bootloader, over its pseudo-terminal, on both parts: the ATmega88 and the
-ATmega328P (their applications from AX12_BOOTABLE_APPS_<mcu>: the product's where it sits
-beside the bootloader, else test/sim/CMakeLists.txt's test build that does).
+ATmega328P, with the product's applications.
 
 - ID 2 is updated to the ax12a application and back to the ax12 one: each time it then runs
   that profile (Model Number and Firmware Version as its control table says, the version
@@ -64,14 +63,13 @@ import ax12_table as T  # noqa: E402
 from ax12_servo_port import BadChecksum, NoAnswer, ServoPort  # noqa: E402
 
 MCUS = ("atmega88", "atmega328p")
-APPS = {mcu: os.environ.get(f"AX12_BOOTABLE_APPS_{mcu}") or FIRMWARE_DIR for mcu in MCUS}
 BOOT_ELF = {mcu: os.path.join(FIRMWARE_DIR, f"ax12-boot-{mcu}.elf") for mcu in MCUS}
 FRONT_DOOR = os.path.join(REPO, "scripts", "ax12")
 RANDOM_CUTS = {"atmega88": 20, "atmega328p": 10}
 
 
 def app_file(mcu, profile, suffix):
-    return os.path.join(APPS[mcu], f"ax12-{profile}-{mcu}.{suffix}")
+    return os.path.join(FIRMWARE_DIR, f"ax12-{profile}-{mcu}.{suffix}")
 ITEM = {item.name: item for item in T.ITEMS}
 # Firmware Version per profile, as the generated table gives each profile's default.
 FIRMWARE_VERSION = {profile: getattr(ITEM["FIRMWARE_VERSION"], f"default_{profile}") for profile in ("ax12", "ax12a")}

@@ -67,7 +67,8 @@ def test_defaults_and_other_hex(tmp_path):
     run = flash_isp("--programmer", "avrisp2", "--dry-run")
     words, ops = operations(run.stdout)
     assert option(words, "-p") == "m88" and "-P" not in words
-    assert ops[0] == "flash:w:" + os.path.join(BUILD, "firmware", "ax12-ax12-atmega88.hex") + ":i"
+    # the ATmega88 carries the bootloader: its whole flash, the merged HEX
+    assert ops[0] == "flash:w:" + os.path.join(BUILD, "firmware", "ax12-ax12-atmega88-merged.hex") + ":i"
     own = tmp_path / "mine.hex"
     shutil.copy(os.path.join(BUILD, "firmware", "ax12-ax12a-atmega328p.hex"), own)
     run = flash_isp("--programmer", "avrisp2", "--mcu", "atmega328p", "--hex", str(own), "--dry-run")

@@ -10,10 +10,7 @@
  * (factory values on a blank EEPROM); every error answer, the gap rule, a long packet, the
  * flasher's bytes that end a packet taken up from a cut one, packets to others; the
  * application answering at once after GO that ends a long stay. Simulated time throughout.
- *
- * The applications: AX12_BOOTABLE_APPS_<mcu>/ax12-<profile>-<mcu>.elf, the product's where it
- * sits beside the bootloader (firmware/bootable_mcus.cmake), else a test build that does
- * (test/sim/CMakeLists.txt). */
+ * The applications: the product's, AX12_FIRMWARE_DIR/ax12-<profile>-<mcu>.elf. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -31,20 +28,15 @@
 #include "boot_protocol.h"
 #include "sim_harness.h"
 
-#ifndef AX12_BOOTABLE_APPS_atmega88
-#error "AX12_BOOTABLE_APPS_atmega88 and _atmega328p must be defined by the build"
-#endif
-
 typedef struct {
   const char *mcu;
-  const char *app_dir;
   uint32_t flash_bytes;
   uint16_t page_bytes;
   uint8_t signature[3];
 } part_t;
 
-static const part_t ATMEGA88 = {"atmega88", AX12_BOOTABLE_APPS_atmega88, 8192, 64, {0x1E, 0x93, 0x0A}};
-static const part_t ATMEGA328P = {"atmega328p", AX12_BOOTABLE_APPS_atmega328p, 32768, 128, {0x1E, 0x95, 0x0F}};
+static const part_t ATMEGA88 = {"atmega88", 8192, 64, {0x1E, 0x93, 0x0A}};
+static const part_t ATMEGA328P = {"atmega328p", 32768, 128, {0x1E, 0x95, 0x0F}};
 
 #define MAX_FLASH 32768u
 #define MAX_PAGE 128u
@@ -74,7 +66,7 @@ static const char *boot_elf(const part_t *part) {
 
 static const char *app_elf(const part_t *part, const char *profile) {
   static char path[1024];
-  snprintf(path, sizeof path, "%sax12-%s-%s.elf", part->app_dir, profile, part->mcu);
+  snprintf(path, sizeof path, "%s/ax12-%s-%s.elf", AX12_FIRMWARE_DIR, profile, part->mcu);
   return path;
 }
 

@@ -9,8 +9,8 @@
 
 /* When no --bootloader was given: the default one (<firmware-dir>/ax12-boot-<mcu>.elf, when it
  * exists) goes in front of this project's application only: an ELF with the `servo` object the
- * dashboard reads (servo_probe.h) that ends below the application record (today the
- * ATmega328P's builds). Another program runs alone. */
+ * dashboard reads (servo_probe.h) that ends below the application record (this project's
+ * builds, on both parts). Another program runs alone. */
 void emu_firmware_choose_bootloader(serve_options_t *o);
 
 /* Once the firmware and the bootloader are loaded, on stderr: that a program not of this project runs without the
