@@ -124,8 +124,14 @@ bool servo_ready_for_clients(const servo_t *servo, sim_cycles_t since_power_up) 
     return false;
   }
   const avr_t *avr = servo->avr;
-  if (avr->reset_pc == 0 || avr->pc < avr->reset_pc) {
-    return true; /* no bootloader, or the application runs */
+  if (avr->reset_pc == 0) {
+    return true; /* no bootloader */
+  }
+  if (avr->pc < avr->reset_pc && avr_regbit_get(servo->avr, servo->board.link.uart->rxc.enable)) {
+    /* The application runs and has set up its USART: the receiver the bootloader left on (at
+     * its own baud) does not say so, this project's interrupt-driven receive does (RXCIE0,
+     * which the bootloader, polling, never sets). */
+    return true;
   }
   return since_power_up >= sim_ms(BOOT_WINDOW_DONE_MS);
 }

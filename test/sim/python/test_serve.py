@@ -113,8 +113,8 @@ def rdt_writes_logged(log_path):
         rows = list(csv.DictReader(f))
     replies, last_us, waiting = [], 0.0, False
     for row in rows:
-        if not row["end_us"]:
-            break  # a row cut by the kill
+        if not row["end_us"] or row["params"] is None:
+            break  # a row cut by the kill (anywhere: its fields from the cut on are missing)
         last_us = float(row["end_us"])
         params = row["params"].split()
         if row["sender"] == "client":
