@@ -4,8 +4,14 @@ Intel HEX file read into the bytes from address 0, checked against the target pa
 flash pages, and its application record.
 
 - load(path) reads a HEX file (intelhex) or raises ImageError with a message naming the file;
+- load(path) reads a HEX file (intelhex) or raises ImageError with a message naming the file;
 - image.check_target(mcu) refuses an image built for another part or too large for the
   application area less the record;
+- image.check_flashable() refuses, before any servo is asked anything, an image no servo's
+  bootloader takes: not an application, or too large for its part's application area (a
+  merged HEX with the bootloader in it, say);
+- area_text(mcu) names the part's application area and its parts, the one wording of every
+  message about it;
 - image.update_pages(mcu) are the (address, bytes) pages of an update in the order they are
   written: the record's page first with the record erased, the image's other pages, the
   record's page last with the record;
@@ -44,6 +50,14 @@ def record(length, check):
     """The application record of an image of length bytes with this check value: the address
     of its last byte and the check value, 16 bits each, little-endian."""
     return (length - 1).to_bytes(2, "little") + check.to_bytes(2, "little")
+
+
+def area_text(mcu):
+    """The part's application area (the flash below the boot section, ax12_fuses.MCUS) as every
+    message names it: the image's part and the record's."""
+    part = ax12_fuses.MCUS[mcu]
+    return (f"application area 0x0000-0x{part.boot_start - 1:04X}: the image 0x0000-0x{part.record_at - 1:04X} "
+            f"({part.record_at} B at most), its record 0x{part.record_at:04X}-0x{part.boot_start - 1:04X}")
 
 
 def _words(data, count):
@@ -98,14 +112,30 @@ class AppImage:
         application record (the application area less the record)."""
         built_for = self.built_for
         if built_for is None:
-            raise ImageError(f"{self.path}: its first bytes are not an AVR vector table "
-                             f"(26 JMP or RJMP instructions): not an Open AX-12 application")
+            raise ImageError(self._not_an_application())
         if built_for != mcu:
             raise ImageError(f"{self.path} is built for the {built_for}, the servo is an {mcu}")
         limit = ax12_fuses.MCUS[mcu].record_at
         if len(self.data) > limit:
-            raise ImageError(f"{self.path} is {len(self.data)} B: larger than the {mcu}'s application "
-                             f"area less the record, {limit} B (0x0000-0x{limit - 1:04X})")
+            merged = (" (it reaches into the boot section: a HEX with the bootloader in it is for "
+                      "`scripts/ax12 flash-isp`; `flash` takes the application alone, "
+                      "ax12-<profile>-<mcu>.hex)" if len(self.data) > ax12_fuses.MCUS[mcu].boot_start else "")
+            raise ImageError(f"{self.path} is {len(self.data)} B, more than the {mcu}'s "
+                             f"{area_text(mcu)}{merged}")
+
+    def check_flashable(self):
+        """Raises ImageError unless its own part's bootloader could take the image: an
+        application's vector table, fitting that part's application area less the record.
+        Checked before a servo is asked into its bootloader, so a refused file never leaves one
+        there."""
+        built_for = self.built_for
+        if built_for is None:
+            raise ImageError(self._not_an_application())
+        self.check_target(built_for)
+
+    def _not_an_application(self):
+        return (f"{self.path}: its first bytes are not an AVR vector table "
+                f"(26 JMP or RJMP instructions): not an Open AX-12 application")
 
     def flash_bytes(self, mcu, with_record=True):
         """The application area as the update leaves it where it writes: the image, 0xFF up

@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: GPL-3.0-or-later
 """The live dashboard of `scripts/ax12 serve --dashboard [HOST:]PORT` (docs/dashboard.md): a web
-page (web/dashboard, charts by uPlot from npm, installed by scripts/setup: nothing is fetched
-at run time) fed through a WebSocket from the emulator's control socket.
+page (web/dashboard, charts by uPlot and the robot's 3D view by three.js, both from npm,
+installed by scripts/setup: nothing is fetched at run time) fed through a WebSocket from the emulator's control socket.
 
 The server holds three connections to the control socket, subscribed only while a page is
 open: every servo at the update rate (ax12_headroom: 20 times a second while the machine has a
@@ -17,6 +17,12 @@ The bus monitor's packets come in batches (one message per batch, every 50 ms at
 to a page only while its monitor is on screen, so a busy bus costs the page and this server
 little. Bad input gets a message and changes nothing; a page that stops reading is dropped, and
 nothing a page does stops the bus.
+
+With a robot (`serve --robot`), every telemetry message carries its pose ("robot": every
+body's position and orientation, docs/robot.md "The robot on the control socket"), GET
+/api/robot gives what a 3D view needs to draw it (bodies, geoms, meshes, its world), and a
+page's {"type": "robot", "set": {...}} changes its world (a payload, a push, gravity) as
+`scripts/ax12 world` does.
 
 Started by ax12-emu with --control PATH --listen HOST:PORT; prints one line
 `listening http://HOST:PORT/` on stdout once it serves, then logs only to stderr. It exits
@@ -39,6 +45,7 @@ import ax12_headroom  # noqa: E402
 
 WEB = os.path.join(REPO, "web", "dashboard")
 UPLOT = os.path.join(WEB, "node_modules", "uplot", "dist")
+THREE = os.path.join(WEB, "node_modules", "three")  # its build/ and its addons (examples/jsm/)
 TELEMETRY_HZ = 20         # the selected servo's charts
 TABLE_HZ = 5              # the shown servo's control table
 POINTS_PERIOD_OFF_S = 1.0  # a page's chart points while its charts are off screen (else every whole event)
@@ -87,7 +94,8 @@ class Emulator:
                                              "packets": on}).encode() + b"\n")
         shown = sorted({slot for slot in self.selected.values() if isinstance(slot, int)})
         self.charts_writer.write(json.dumps({"op": "subscribe", "telemetry_hz": TELEMETRY_HZ if on and shown else 0,
-                                             "table_hz": TABLE_HZ, "servos": shown}).encode() + b"\n")
+                                             "table_hz": TABLE_HZ, "servos": shown,
+                                             "robot": False}).encode() + b"\n")  # poses: in the whole events
         await self.events_writer.drain()
         await self.charts_writer.drain()
 
@@ -267,6 +275,18 @@ async def page_world(emu, msg):
     return True, "servo %d's world changed: %s" % (slot, ", ".join("%s %s" % kv for kv in changes.items()))
 
 
+async def page_robot(emu, msg):
+    """A change of the robot's world: {"payload": ..., "push": ..., "gravity": ...} as the
+    control socket's "robot" request takes it (checked whole by the emulator)."""
+    changes = msg.get("set")
+    if not isinstance(changes, dict) or not changes:
+        return False, "nothing to change (payload, push, gravity)"
+    reply = await emu.request({"op": "robot", "set": changes})
+    if not reply.get("ok"):
+        return False, reply.get("error", "refused")
+    return True, "the robot's world changed: %s" % ", ".join("%s %s" % (k, json.dumps(v)) for k, v in changes.items())
+
+
 async def send_queued(ws, queue):
     while True:
         text = await queue.get()
@@ -294,7 +314,9 @@ async def answer(emu, ws, msg):
             return await page_write(emu, msg)
         if kind == "world":
             return await page_world(emu, msg)
-        return False, "unknown request (write or world)"
+        if kind == "robot":
+            return await page_robot(emu, msg)
+        return False, "unknown request (write, world or robot)"
     except (asyncio.TimeoutError, ConnectionError) as e:
         return False, "the emulator did not answer: %s" % (e or "timeout")
 
@@ -346,6 +368,17 @@ async def items(request):
     return web.json_response([item._asdict() for item in ax12_table.ITEMS])
 
 
+async def robot(request):
+    """The robot's description (docs/robot.md): {"robot": {...}}, or {"robot": null} without one."""
+    emu = request.app["emu"]
+    try:
+        reply = await emu.request({"op": "robot"})
+    except (asyncio.TimeoutError, ConnectionError) as e:
+        return web.json_response({"robot": None, "error": "the emulator did not answer: %s" % (e or "timeout")},
+                                 status=503)
+    return web.json_response({"robot": reply.get("robot") if reply.get("ok") else None})
+
+
 async def index(request):
     return web.FileResponse(os.path.join(WEB, "index.html"))
 
@@ -374,8 +407,11 @@ async def serve(args):
     app.router.add_get("/", index)
     app.router.add_get("/ws", websocket)
     app.router.add_get("/api/items", items)
+    app.router.add_get("/api/robot", robot)
     app.router.add_static("/static/", WEB)
     app.router.add_static("/uplot/", UPLOT)
+    app.router.add_static("/three/build/", os.path.join(THREE, "build"))
+    app.router.add_static("/three/addons/", os.path.join(THREE, "examples", "jsm"))
     runner = web.AppRunner(app, access_log=None)
     await runner.setup()
     host, port = args.listen
@@ -404,9 +440,10 @@ def main():
     args = parser.parse_args()
     import ax12_build
     ax12_build.ensure(args.build)
-    if not os.path.exists(os.path.join(UPLOT, "uPlot.iife.min.js")):
-        log("%s is missing: run scripts/setup (it installs uPlot with npm)" % UPLOT)
-        return 1
+    for asset in (os.path.join(UPLOT, "uPlot.iife.min.js"), os.path.join(THREE, "build", "three.module.js")):
+        if not os.path.exists(asset):
+            log("%s is missing: run scripts/setup (it installs uPlot and three.js with npm)" % asset)
+            return 1
     try:
         return asyncio.run(serve(args))
     except KeyboardInterrupt:

@@ -3,17 +3,20 @@
 """scripts/ax12 flash: writes a new application to one servo over the Dynamixel bus, through
 its bootloader (docs/bootloader.md, section "Updating over the bus").
 
-Steps: the file is read and checked (python/ax12_app_image.py) before anything is sent; INFO
-to the servo (an application is asked into its bootloader with instruction 0x0A "BOOT"); the
-image checked against the part INFO names; the pages written (each tried again, up to
---retries more times, after a lost or garbled answer or a read-back error): the record's page
-first with the record erased, the image, the record's page last with the record; every
-written page read back and compared (unless --no-verify); GO; then the application must
-answer a PING and a READ of its Model Number and Firmware Version. Progress and steps on
-stderr, the result on stdout.
+Steps: the file is read and checked (python/ax12_app_image.py) before anything is sent, against
+its own part's facts too (a part with a bootloader, its application area); INFO to the servo (an
+application is asked into its bootloader with instruction 0x0A "BOOT"); the image checked
+against the part INFO names; the pages written (each tried again, up to --retries more times,
+after a lost or garbled answer or a read-back error): the record's page first with the record
+erased, the image, the record's page last with the record; every written page read back and
+compared (unless --no-verify); GO; then the application must answer a PING and a READ of its
+Model Number and Firmware Version. A servo this command asked into its bootloader and then
+refused (another part, another bootloader version, Ctrl-C) before the first page is sent GO, so
+it runs its application again. Progress and steps on stderr, the result on stdout; every error
+one line on stderr, a port lost mid-update (the adapter unplugged, the emulator gone) included.
 
-Exit status: 0 done; 1 the servo or the transfer failed (the message says where); 2 a bad
-file, a file for another part or too large, bad arguments, or a port that cannot be opened.
+Exit status: 0 done; 1 the servo, the port or the transfer failed (the message says where); 2 a
+bad file, a file for another part or too large, bad arguments, or a port that cannot be opened.
 """
 import argparse
 import os
@@ -103,8 +106,9 @@ def open_serial(device, baud):
         raise BadInput(f"cannot open {device} at {baud} bps: {error}")
 
 
-def enter_bootloader(client, baud, boot):
-    """The BootInfo of the servo's bootloader, asking a running application into it first."""
+def enter_bootloader(client, baud, boot, asked=None):
+    """The BootInfo of the servo's bootloader, asking a running application into it first
+    (then asked(), before the request goes out)."""
     answer = client.info(attempts=2)
     if boot.parse_info(answer):
         return boot.parse_info(answer)
@@ -116,6 +120,8 @@ def enter_bootloader(client, baud, boot):
         raise boot.BootError(f"servo {client.ident} answers INFO with error 0x{answer.code:02X} and "
                              f"{len(answer.params)} parameters: neither an application nor the bootloader")
     say(f"servo {client.ident} runs its application: asking it into the bootloader")
+    if asked is not None:
+        asked()
     deadline = time.monotonic() + ENTER_TIMEOUT_S
     while time.monotonic() < deadline:
         reply = client.request_bootloader()
@@ -134,10 +140,13 @@ def enter_bootloader(client, baud, boot):
                          f"of the request to enter it")
 
 
-def write_image(client, image, mcu, verify):
+def write_image(client, image, mcu, verify, begun=None):
     """The pages of the update in their order (ax12_app_image.update_pages: the record erased
-    first, written last), then (verify) every page as it must read now."""
+    first, written last; begun() before the first), then (verify) every page as it must read
+    now."""
     plan = image.update_pages(mcu)
+    if begun is not None:
+        begun()
     progress = Progress("writing", len(plan))
     for done, (address, data) in enumerate(plan, 1):
         client.page(address, data)
@@ -191,6 +200,30 @@ def start_application(client, boot, retries):
                          f"the application in its flash is not valid")
 
 
+def restart_application(client, boot):
+    """GO to a servo this command asked into its bootloader and wrote nothing to, and the
+    application's answer: one line on stderr either way. False when it does not run again."""
+    try:
+        client.go()
+        started = application_answer(client, boot) != STILL_IN_BOOTLOADER
+    except boot.BootError:
+        started = False
+    say(f"servo {client.ident}: nothing written; " + (
+        "its application runs again" if started else
+        "sent GO, but it did not start its application: it answers as a bootloader at its ID; run the command again"))
+    return started
+
+
+def port_errors():
+    """What a serial port raises when it goes away under a transfer: the device unplugged, the
+    emulator behind a pty gone (pyserial's SerialException, OSError from a write, termios.error
+    from a flush)."""
+    import termios
+
+    import serial
+    return (serial.SerialException, OSError, termios.error)
+
+
 def main(argv=None, open_port=open_serial):
     args = arguments(argv)
     import ax12_build
@@ -201,11 +234,25 @@ def main(argv=None, open_port=open_serial):
     from ax12_servo_port import ServoPort
 
     port = None
+    # The servo's state as far as this command moved it: asked into its bootloader by it, and
+    # whether the first page went out (it erases the record: from then on the application is not
+    # valid until the record's page is written last).
+    moved = {"asked": False, "begun": False}
+    client = None
+
+    def leave_refused(code):
+        """A refusal after this command asked the servo in and before the first page: GO first."""
+        if moved["asked"] and not moved["begun"] and client is not None:
+            if not restart_application(client, boot):
+                return EXIT_SERVO
+        return code
+
     try:
         image = image_module.load(args.firmware)
+        image.check_flashable()
         port = open_port(args.port, args.baud)
         client = boot.BootClient(ServoPort(port, args.ident, ANSWER_TIMEOUT_S), args.retries)
-        info = enter_bootloader(client, args.baud, boot)
+        info = enter_bootloader(client, args.baud, boot, asked=lambda: moved.update(asked=True))
         mcu = image_module.mcu_of_signature(info.signature)
         if mcu is None:
             raise boot.BootError(f"servo {args.ident}'s bootloader reports the signature "
@@ -215,22 +262,36 @@ def main(argv=None, open_port=open_serial):
                                  f"writes to version {boot.VERSION} (docs/bootloader.md)")
         part = ax12_fuses.MCUS[mcu]
         say(f"servo {args.ident}: bootloader {info.version} on an {mcu}, page {part.page_bytes} B, "
-            f"application area 0x0000-0x{part.boot_start - 1:04X}")
+            f"{image_module.area_text(mcu)}")
         image.check_target(mcu)
-        write_image(client, image, mcu, not args.no_verify)
+        write_image(client, image, mcu, not args.no_verify, begun=lambda: moved.update(begun=True))
         model, version = start_application(client, boot, args.retries)
     except (image_module.ImageError, BadInput) as error:
         say(str(error))
-        return EXIT_BAD_INPUT
+        return leave_refused(EXIT_BAD_INPUT)
     except (boot.BootError, TransferError) as error:
         say(str(error))
-        return EXIT_SERVO
+        return leave_refused(EXIT_SERVO)
     except KeyboardInterrupt:
-        say("interrupted: a servo stopped between BEGIN and END stays in its bootloader; run the command again")
+        if moved["begun"]:
+            say("interrupted: a servo stopped once its first page (the record erased) was written stays in its "
+                "bootloader; run the command again")
+            return EXIT_SERVO
+        say("interrupted")
+        return leave_refused(EXIT_SERVO)
+    except port_errors() as error:
+        if sys.stderr.isatty():
+            sys.stderr.write("\n")  # past a progress bar
+        say(f"lost the port {args.port} ({error}); " + (
+            f"servo {args.ident} stays in its bootloader: run the command again once the bus is back"
+            if moved["begun"] else "nothing was written"))
         return EXIT_SERVO
     finally:
         if port is not None:
-            port.close()
+            try:
+                port.close()
+            except port_errors():
+                pass
     pages = len(image.update_pages(mcu))
     started = (f"Model Number {model}, Firmware Version {version}" if model is not None
                else "it answers PING, not READ (Status Return Level 0)")

@@ -182,7 +182,11 @@ def main(argv=None):
     parser.add_argument("--lab", default=os.environ.get("AX12_LAB", "ax12-lab"), help="the ax12-lab program")
     parser.add_argument("--csv", metavar="FILE", help="also keep the CSV the figure was drawn from")
     parser.add_argument("--profile", choices=["ax12", "ax12a"], default="ax12", help="behaviour profile (default ax12)")
+    # scripts/ax12 checks the arguments before it builds ax12-lab: a usage error comes at once.
+    parser.add_argument("--check-arguments", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.check_arguments:
+        return
 
     import matplotlib
     matplotlib.use("Agg")

@@ -7,13 +7,19 @@ device on a serial port and reports where its answers differ from the recording
 Every row the client sent (sender `client`: instructions, and its garbage and Protocol 2.0
 bytes too) is sent again, no earlier than its recorded offset from the first client row; when
 the device takes longer than the recording the schedule slips. The rows of the other senders
-(the servos) between one client row and the next are the answers expected to it. After each
+(the servos) between one client row and the next are the answers recorded after it. After each
 packet the answers are read until the recorded time of the next client packet, and at least
-until as many bytes as expected have come (or --timeout has passed); a packet recorded without
-an answer is listened to for at least UNANSWERED_LISTEN_S. The bytes are cut into
-packets as the bus monitor cuts them, lined up with the expected ones (difflib, by header, ID,
-LENGTH and error byte: one answer too many or too few does not shift the others) and compared,
-expected against got:
+until as many bytes as recorded after it have come, less those that came ahead of the recording
+but its first answer at least (or --timeout has passed); a packet recorded without an answer is
+listened to for at least UNANSWERED_LISTEN_S. The bytes that came are cut into packets as the
+bus monitor cuts them, each taken as come after the packet sent last before its first byte.
+
+Answers are compared in order, as one stream, not packet by packet: answers the pty handed over
+in other groups than in the recording (several requests delivered at once and their answers
+after the last, in the recording or in the replay, or an answer handed over late) are the same
+answers. Lining up the two streams (answers alike to the byte first, nearest to the packet they
+were recorded after; then by header, ID, LENGTH and error byte) keeps one answer too many or too
+few from shifting the others; then each pair is compared, expected against got:
 
 - default: the length, header, ID, LENGTH and error byte of every answer always; its data
   bytes too, except in the answers to a READ the bytes of the time-varying items (Present
@@ -21,6 +27,9 @@ expected against got:
   no two runs of a moving servo share; the checksum when no such byte differed (else only
   that it is right when the recorded one was). Garbage is compared byte for byte.
 - --strict: every byte.
+
+A difference is reported under the packet the expected answer was recorded after (an extra
+answer: the packet it came after).
 
 Exit status: 0 every answer as recorded; 1 some differ (each difference printed: the request,
 its time, expected against got); 2 a bad file (one line naming the file, the line and the
@@ -182,7 +191,16 @@ def packets():
 def split(data):
     """data cut as the bus monitor cuts one sender's bytes (ax12_packets.cut): Protocol 1.0
     packets and the garbage runs between them, each a bytes object."""
-    return [chunk for _, chunk in packets().cut(data)]
+    return [chunk for _, chunk in split_at(data)]
+
+
+def split_at(data):
+    """split(data) as (offset of the first byte, bytes) pairs."""
+    out, at = [], 0
+    for _, chunk in packets().cut(data):
+        out.append((at, chunk))
+        at += len(chunk)
+    return out
 
 
 def checksum_ok(packet, f):
@@ -292,6 +310,7 @@ def replay(args, T):
     print("ax12 replay: %s -> %s at %d bit/s: %d client packets, %d answers recorded; compared: %s"
           % (args.log, args.port, args.baud, len(exs), sum(len(e.expected) for e in exs), rule))
     byte_s = BITS_PER_BYTE / args.baud
+    sent_times = []
     differences = 0
     differing = set()  # exchanges with a difference
     t0_rec = exs[0].request.time_us
@@ -310,34 +329,68 @@ def replay(args, T):
         for line in lines:
             print("  " + line)
 
+    stream = bytearray()   # every byte the device sent, in order
+    window_at = []         # window_at[k]: where in stream the bytes after packet k begin
+    expected_before = 0    # bytes recorded after the packets before this one
     try:
         for k, ex in enumerate(exs):
             # The previous window read up to this packet's time (or past it): nothing is pending.
             sent_at = time.monotonic()
             os.write(port.fd, ex.request.raw)
+            sent_times.append(sent_at)
+            window_at.append(len(stream))
             wire_end = sent_at + len(ex.request.raw) * byte_s
-            got = bytearray()
             need = ex.expected_bytes
             if need:
-                port.read_until(wire_end + args.timeout + need * byte_s, got, lambda: len(got) >= need)
+                # This packet's answers, less what came ahead of the recording (a pty that handed
+                # over answers to requests it had delivered at once), but its first answer at
+                # least.
+                ahead = max(0, len(stream) - expected_before)
+                wanted = max(need - ahead, len(ex.expected[0]))
+                start = len(stream)
+                port.read_until(wire_end + args.timeout + need * byte_s, stream, lambda: len(stream) - start >= wanted)
+            expected_before += need
             if k + 1 < len(exs):
                 next_at = t0 + (exs[k + 1].request.time_us - t0_rec) / 1e6
                 if not need:
                     next_at = max(next_at, wire_end + UNANSWERED_LISTEN_S)
-                port.read_until(next_at, got)
+                port.read_until(next_at, stream)
             else:
-                port.read_until(time.monotonic() + TAIL_S, got)
-            lines = compare(ex, split(bytes(got)), args.strict, T, varying)
-            if lines:
-                report(k, sent_at, lines)
+                port.read_until(time.monotonic() + TAIL_S, stream)
     finally:
         port.close()
+    for k, lines in compare_all(exs, answers_by_window(stream, window_at), args.strict, T, varying):
+        report(k, sent_times[k], lines)
     if differences:
         print("result: DIFFERENT: %d difference%s in %d of %d exchanges"
               % (differences, "" if differences == 1 else "s", len(differing), len(exs)))
         return EXIT_DIFFERENT
     print("result: SAME: every answer as recorded (%d exchanges)" % len(exs))
     return 0
+
+
+def answers_by_window(stream, window_at):
+    """The packets of stream (split as the monitor cuts them), each in the list of the window
+    its first byte came in: window k from window_at[k] to the next."""
+    windows = [[] for _ in window_at]
+    k = 0
+    for offset, packet in split_at(bytes(stream)):
+        while k + 1 < len(window_at) and window_at[k + 1] <= offset:
+            k += 1
+        windows[k].append(packet)
+    return windows
+
+
+def compare_all(exs, got_by_window, strict, T, varying):
+    """[(exchange index, lines)] of every exchange with a difference, the answers of the whole
+    replay compared as one stream (compare_stream): an expected answer reported where it was
+    recorded, an extra one where it came."""
+    expected = [(k, i, packet) for k, ex in enumerate(exs) for i, packet in enumerate(ex.expected)]
+    got = [(k, j, packet) for k, packets in enumerate(got_by_window) for j, packet in enumerate(packets)]
+    found = {}
+    for k, line in compare_stream(exs, expected, got, strict, T, varying):
+        found.setdefault(k, []).append(line)
+    return sorted(found.items())
 
 
 def shape(packet):
@@ -348,22 +401,82 @@ def shape(packet):
 
 
 def compare(ex, answers, strict, T, varying):
-    """Lines naming each difference between the answers expected and got. The two lists are
-    aligned first (difflib), so an answer in excess or missing among others is reported as
-    such and the others are still compared with their counterparts."""
-    lines = []
-    sm = difflib.SequenceMatcher(a=[shape(e) for e in ex.expected], b=[shape(g) for g in answers], autojunk=False)
-    for tag, i1, i2, j1, j2 in sm.get_opcodes():
-        pairs = list(zip(range(i1, i2), range(j1, j2)))
-        for i, j in pairs:
-            e, g = ex.expected[i], answers[j]
-            if not same(ex.request.raw, e, g, strict, T, varying):
-                lines.append("answer %d: different: expected %s, got %s" % (j + 1, hexs(e), hexs(g)))
-        for i in range(i1 + len(pairs), i2):
-            lines.append("answer %d: missing: expected %s, got nothing" % (i + 1, hexs(ex.expected[i])))
-        for j in range(j1 + len(pairs), j2):
-            lines.append("answer %d: extra: expected nothing, got %s" % (j + 1, hexs(answers[j])))
-    return lines
+    """Lines naming each difference between the answers expected after one exchange and got."""
+    return [line for _, line in compare_stream([ex], [(0, i, e) for i, e in enumerate(ex.expected)],
+                                               [(0, j, g) for j, g in enumerate(answers)], strict, T, varying)]
+
+
+# Lining up the answers (compare_stream): a pair alike to the byte scores ALIKE, less
+# FAR_PER_PACKET for each packet between the one it was recorded after and the one it came
+# after; a pair of one shape (header, ID, LENGTH, error byte) scores SHAPED, any other pair
+# OTHER (one answer in place of another: "different"); an answer left alone (missing or extra)
+# nothing. The n-th answer expected is paired with one at most SHIFT_MAX places from the n-th
+# got (answers missing or extra, net); beyond, they are lined up by shape alone (difflib).
+ALIKE, SHAPED, OTHER, FAR_PER_PACKET = 2.0, 1.0, 0.25, 1e-3
+SHIFT_MAX = 40
+
+
+def aligned(expected, got):
+    """[(i, j)] pairs of expected[i] and got[j] (each (exchange, number, bytes)), in order, that
+    line up best: the others are missing (expected) or extra (got)."""
+    n, m = len(expected), len(got)
+    band = SHIFT_MAX + abs(n - m)
+    if band > 4 * SHIFT_MAX:
+        matcher = difflib.SequenceMatcher(a=[shape(e) for _, _, e in expected], b=[shape(g) for _, _, g in got],
+                                          autojunk=False)
+        return [(i1 + d, j1 + d) for tag, i1, i2, j1, j2 in matcher.get_opcodes() if tag in ("equal", "replace")
+                for d in range(min(i2 - i1, j2 - j1))]
+
+    def score(i, j):
+        (ke, _, e), (kg, _, g) = expected[i], got[j]
+        if e == g:
+            return ALIKE - FAR_PER_PACKET * abs(ke - kg)
+        return SHAPED if shape(e) == shape(g) else OTHER
+
+    lowest = float("-inf")
+    best = {}  # (i, j) -> the best score of expected[i:] against got[j:], within the band
+
+    def at(i, j):
+        if i == n or j == m:
+            return 0.0
+        return best.get((i, j), lowest)
+
+    for i in range(n - 1, -1, -1):
+        for j in range(min(m - 1, i + band), max(0, i - band) - 1, -1):
+            best[(i, j)] = max(at(i + 1, j), at(i, j + 1), score(i, j) + at(i + 1, j + 1))
+    pairs, i, j = [], 0, 0
+    while i < n and j < m:
+        here = at(i, j)
+        if here == score(i, j) + at(i + 1, j + 1):
+            pairs.append((i, j))
+            i, j = i + 1, j + 1
+        elif here == at(i + 1, j):
+            i += 1
+        else:
+            j += 1
+    return pairs
+
+
+def compare_stream(exs, expected, got, strict, T, varying):
+    """[(exchange index, line)] naming each difference between the answers expected and got,
+    each given as (exchange index, its number there, bytes) in order. The two lists are lined
+    up first (aligned), so an answer in excess or missing among others is reported as such and
+    the others are still compared with their counterparts; a pair is compared by the rule of
+    the request the expected answer was recorded after."""
+    out = []
+    pairs = aligned(expected, got)
+    paired_e, paired_g = {i for i, _ in pairs}, {j for _, j in pairs}
+    for i, j in pairs:
+        (k, n, e), g = expected[i], got[j][2]
+        if not same(exs[k].request.raw, e, g, strict, T, varying):
+            out.append((k, "answer %d: different: expected %s, got %s" % (n + 1, hexs(e), hexs(g))))
+    for i, (k, n, e) in enumerate(expected):
+        if i not in paired_e:
+            out.append((k, "answer %d: missing: expected %s, got nothing" % (n + 1, hexs(e))))
+    for j, (k, n, g) in enumerate(got):
+        if j not in paired_g:
+            out.append((k, "answer %d: extra: expected nothing, got %s" % (n + 1, hexs(g))))
+    return out
 
 
 def ranges(values):

@@ -171,7 +171,8 @@ def sdk_ping_median_ms(emu, firmware_dir, pings, adapter=DEFAULT_ADAPTER):
 
 def dashboard_page(port_number, view="top"):
     """A headless Chromium showing the dashboard at port_number, once it is live (Selenium),
-    scrolled to `view`: "top" (the servo list), "charts" (the overview and the charts)."""
+    scrolled to `view`: "top" (the servo list, below the 3D view with a robot), "charts" (the
+    overview and the charts). WebGL, with a robot, on SwiftShader (the CPU)."""
     import shutil
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
@@ -179,7 +180,8 @@ def dashboard_page(port_number, view="top"):
     options = webdriver.ChromeOptions()
     options.binary_location = shutil.which("chromium") or "chromium"
     # A laptop's screen (1366 x 768, the most common): the list and the charts in view.
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1366,768"):
+    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1366,768",
+                "--use-angle=swiftshader", "--enable-unsafe-swiftshader"):
         options.add_argument(arg)
     driver = webdriver.Chrome(service=Service(shutil.which("chromedriver") or "/usr/bin/chromedriver"),
                               options=options)
@@ -225,15 +227,16 @@ def free_tcp_port():
         return s.getsockname()[1]
 
 
-def sdk_client_loop(emu, firmware_dir, servos, seconds, adapter=DEFAULT_ADAPTER, dashboard=None):
+def sdk_client_loop(emu, firmware_dir, servos, seconds, adapter=DEFAULT_ADAPTER, dashboard=None, robot=None):
     """One SYNC_WRITE of goal positions plus a READ of Present Position from every servo,
     repeated through the pty in real time behind `adapter`; then every servo's goal is checked.
     Also returns the servos' Return Delay Time (for the wire-time floor). With `dashboard`, the
     emulator serves the dashboard and a headless Chromium shows it throughout, scrolled to that
-    view (dashboard_page)."""
+    view (dashboard_page). With `robot` (serve --robot, its servos 1..servos), the goals sway
+    20 counts about the joints' zero (the robot's standing pose) every 20 loops."""
     from dynamixel_sdk import GroupSyncWrite
     import ax12_table as T
-    extra = ["--adapter", adapter]
+    extra = ["--adapter", adapter] + (["--robot", robot] if robot else [])
     if dashboard:
         port_number = free_tcp_port()
         extra += ["--dashboard", str(port_number)]
@@ -251,7 +254,7 @@ def sdk_client_loop(emu, firmware_dir, servos, seconds, adapter=DEFAULT_ADAPTER,
         while time.perf_counter() < t_end:
             sync = GroupSyncWrite(port, packet, T.GOAL_POSITION, T.BY_ADDR[T.GOAL_POSITION].size)
             for i in range(1, servos + 1):
-                goals[i] = 400 + (i * 7 + (loops // 20) * 200) % 300
+                goals[i] = 512 + 20 * ((loops // 20) % 2) if robot else 400 + (i * 7 + (loops // 20) * 200) % 300
                 sync.addParam(i, [goals[i] & 0xFF, goals[i] >> 8])
             sync.txPacket()
             for i in range(1, servos + 1):
@@ -346,6 +349,32 @@ def dashboard_cost(emu, fw, seconds, row):
         "/s", ">= 20", "dashboard_updates_idle")
 
 
+def dashboard_robot_cost(emu, fw, seconds, row):
+    """The same 30-servo SDK loop on the hexapod (`--robot hexapod --ids 1-30`: 18 servos on its
+    joints, 12 beside them; the goals sway about the standing pose) without the dashboard and
+    with its page open at the top (the robot's 3D view, drawn by SwiftShader on the CPU, and the
+    servo list), alternated three times in one run; the ratio against the mean without."""
+    views = (None, "top")
+    rates = {view: [] for view in views}
+    updates = []
+    for _ in range(3):
+        for view in views:
+            loop = sdk_client_loop(emu, fw, 30, seconds, dashboard=view, robot="hexapod")
+            rates[view].append(loop["loops_per_s"])
+            if view:
+                updates.append(loop["page_updates_per_s"])
+    without = statistics.mean(rates[None])
+    with_page = statistics.mean(rates["top"])
+    row("dashboard, robot", "30-servo SDK loop on the hexapod without the dashboard", without, "loops/s", "",
+        "dashboard_robot_loop_without")
+    row("dashboard, robot", "30-servo SDK loop on the hexapod, page open at its 3D view", with_page, "loops/s", "",
+        "dashboard_robot_loop_top")
+    row("dashboard, robot", "ratio, page at its 3D view / without (same run)", with_page / without, "", ">= 0.9",
+        "dashboard_robot_loop_ratio_top")
+    row("dashboard, robot", "page at its 3D view: updates drawn in the loop's last second (median)",
+        statistics.median(updates), "/s", "", "dashboard_robot_updates_top")
+
+
 def bootloader_figures(emu, fw, build, row):
     """Each part's bootloader size, and an update of one servo of three (the ax12a build over
     the ax12 one) with `scripts/ax12 flash` through ax12-emu's pty in real time behind the
@@ -358,8 +387,8 @@ def bootloader_figures(emu, fw, build, row):
         boot_flash, _ = avr_size(boot_elf)
         row("bootloader", "%s bootloader flash" % mcu, boot_flash, "B", "<= 512", "bootloader_flash_bytes_%s" % mcu)
         image = os.path.join(fw, "ax12-ax12a-%s.hex" % mcu)
-        for baud_reg, bps, label in ((1, 1000000, "1 Mbps"), (34, 57600, "57 600 baud")):
-            serve = Serve(emu, fw, "1,2,3", ("--mcu", mcu, "--baud", str(baud_reg), "--bootloader", boot_elf,
+        for bps, label in ((1000000, "1 Mbps"), (57600, "57 600 baud")):
+            serve = Serve(emu, fw, "1,2,3", ("--mcu", mcu, "--baud", str(bps), "--bootloader", boot_elf,
                                              "--elf", os.path.join(fw, "ax12-ax12-%s.elf" % mcu)))
             try:
                 start = time.monotonic()
@@ -443,22 +472,119 @@ def reply_and_load_figures(bench, elf, quick, row, r):
         "flood_servos_silent_after")
 
 
-def host_cost_figure(bench, elf, row):
+def callgrind_inclusive(out_file, function):
+    """A function's inclusive instructions in a callgrind profile (callgrind_annotate)."""
+    text = subprocess.run(["callgrind_annotate", "--inclusive=yes", "--threshold=100", out_file], check=True,
+                          capture_output=True, text=True).stdout
+    for line in text.splitlines():
+        m = re.match(r"^\s*([\d,]+)\s.*:%s\s" % re.escape(function), line)
+        if m:
+            return int(m.group(1).replace(",", ""))
+    return 0
+
+
+def robot_figures(bench, emu, fw, elf, seconds, runs, row):
+    """The hexapod (18 servos + its physics): unthrottled speed holding and under the
+    zero-latency client loop (ax12-bench robot, median of runs), the physics' share of the
+    host's instructions in that loop (callgrind: MuJoCo's step, robot_physics_step, inside
+    bench_robot_loops), and the DynamixelSDK loop in real time behind the default U2D2."""
+    speeds = [run_json([bench, "robot", elf, "hexapod", "1"]) for _ in range(runs)]
+    row("robot: hexapod", "18 servos + physics, unthrottled, holding", statistics.median(
+        x["holding_sim_s_per_wall_s"] for x in speeds), "x real time", ">= 1", "robot_hexapod_holding_fast")
+    row("robot: hexapod", "18 servos + physics, unthrottled, zero-latency client loop", statistics.median(
+        x["loaded_sim_s_per_wall_s"] for x in speeds), "x real time", ">= 1", "robot_hexapod_loaded_fast")
+    # per CPU second of the process: what the simulation makes of a core of its own, however
+    # busy the machine is
+    row("robot: hexapod", "the same, simulated seconds per CPU second: holding", statistics.median(
+        x["holding_sim_s_per_cpu_s"] for x in speeds), "x", "", "robot_hexapod_holding_per_cpu_s")
+    row("robot: hexapod", "the same, simulated seconds per CPU second: client loop", statistics.median(
+        x["loaded_sim_s_per_cpu_s"] for x in speeds), "x", ">= 1", "robot_hexapod_loaded_per_cpu_s")
+    with tempfile.TemporaryDirectory(prefix="ax12-callgrind-") as d:
+        out_file = os.path.join(d, "callgrind.out")
+        run = subprocess.run(["valgrind", "--tool=callgrind", "--toggle-collect=bench_robot_loops",
+                              "--callgrind-out-file=" + out_file, bench, "robot", elf, "hexapod", "0.2"],
+                             check=True, capture_output=True, text=True)
+        loop = json.loads(run.stdout.strip().splitlines()[-1])
+        total = callgrind_inclusive(out_file, "bench_robot_loops")
+        physics = callgrind_inclusive(out_file, "robot_physics_step")
+        coupling = callgrind_inclusive(out_file, "physics_step")
+    row("robot: hexapod", "host instructions per simulated second, client loop (callgrind)",
+        total / loop["loaded_sim_s"], "instructions", "", "robot_hexapod_instructions_per_s")
+    row("robot: hexapod", "physics (MuJoCo's step) share of them", physics / total, "", "<= 0.10",
+        "robot_hexapod_physics_share")
+    row("robot: hexapod", "physics step with its coupling (plants to the step, torques in, joints out)",
+        coupling / total, "", "", "robot_hexapod_coupling_share")
+    row("robot: hexapod", "host instructions per physics step (1 ms)", physics / loop["physics_steps"],
+        "instructions", "", "robot_hexapod_instructions_per_step")
+    loop = sdk_client_loop(emu, fw, 18, seconds, DEFAULT_ADAPTER, robot="hexapod")
+    row("robot: hexapod", "DynamixelSDK SYNC_WRITE + 18 READs (%s), real time" % DEFAULT_ADAPTER,
+        loop["loops_per_s"], "loops/s", "", "robot_hexapod_sdk_loops_per_s")
+    row("robot: hexapod", "DynamixelSDK loop: real-time factor (throttled)", loop.get("speed", float("nan")),
+        "x real time", ">= 1", "robot_hexapod_sdk_speed")
+    row("robot: hexapod", "DynamixelSDK loop: worst lag", loop.get("worst_lag_ms", float("nan")), "ms", "",
+        "robot_hexapod_sdk_worst_lag_ms")
+    row("robot: hexapod", "DynamixelSDK loop: READs that timed out", loop["read_failures"], "", "0",
+        "robot_hexapod_sdk_read_failures")
+
+
+def host_cost_figure(bench, elf, row, other=None):
     # The host's cost of the 30-servo client loop, machine-independent: callgrind's instruction
     # count inside bench_client_loops (the loaded window of ax12-bench speed), per simulated
     # servo-second.
-    # The same window on simavr's own interpreter: the cost before the fast core, in this run.
+    # The same window on simavr's own interpreter: the cost before the fast core, in this run;
+    # other: (its name, ax12-bench, ELF) of another build, measured the same way.
     loaded_s = 0.1
-    instructions, speed = host_instructions([bench, "speed", elf, "30", str(loaded_s)], "bench_client_loops")
-    before, before_speed = host_instructions([bench, "speed", elf, "30", str(loaded_s)], "bench_client_loops",
-                                             SIMAVR_CORE_ENV)
-    after = instructions / (30 * speed["loaded_sim_s"])
-    before = before / (30 * before_speed["loaded_sim_s"])
+
+    def per_servo_s(bench_path, elf_path, env=None):
+        instructions, speed = host_instructions([bench_path, "speed", elf_path, "30", str(loaded_s)],
+                                                "bench_client_loops", env)
+        return instructions / (30 * speed["loaded_sim_s"])
+
+    after = per_servo_s(bench, elf)
+    before = per_servo_s(bench, elf, SIMAVR_CORE_ENV)
     row("host cost (callgrind)", "30-servo client loop, per simulated servo-second", after,
         "instructions", "<= 125 M", "host_instructions_per_servo_s_30")
     row("host cost (callgrind)", "  the same on simavr's interpreter (before)", before,
         "instructions", "", "host_instructions_per_servo_s_30_simavr_core")
     row("host cost (callgrind)", "  before / after", before / after, "", "", "host_cost_ratio_simavr_core")
+    if other:
+        name, other_bench, other_elf = other
+        theirs = per_servo_s(other_bench, other_elf)
+        row("host cost (callgrind)", "  the same on %s" % name, theirs, "instructions", "",
+            "host_instructions_per_servo_s_30_other")
+        row("host cost (callgrind)", "  %s / this build" % name, theirs / after, "", "", "host_cost_ratio_other")
+
+
+def speed_figures(bench, elf, runs, row, other=None):
+    """Unthrottled speed of 1, 18 and 30 servos, idle and under the zero-latency client loop
+    (ax12-bench speed, median of runs), each beside the same on simavr's own interpreter
+    (AX12_SIM_CORE=simavr) and, with other = (its name, ax12-bench, ELF), on another build. The
+    variants run by turns so that all meet the same load: their ratios are the figures a loaded
+    machine keeps."""
+    goals = {(1, "idle"): ">= 1", (1, "loaded"): ">= 1", (18, "idle"): ">= 1", (18, "loaded"): ">= 4",
+             (30, "idle"): ">= 20", (30, "loaded"): ">= 2.5"}
+    for n in (1, 18, 30):
+        speeds, before, theirs = [], [], []
+        for _ in range(runs):
+            speeds.append(run_json([bench, "speed", elf, str(n), "1"]))
+            before.append(run_json([bench, "speed", elf, str(n), "1"], SIMAVR_CORE_ENV))
+            if other:
+                theirs.append(run_json([other[1], "speed", other[2], str(n), "1"]))
+        for kind, label in (("idle", "idle"), ("loaded", "client loop")):
+            key = "%s_sim_s_per_wall_s" % kind
+            fast = statistics.median(x[key] for x in speeds)
+            slow = statistics.median(x[key] for x in before)
+            row("simulation speed", "%d servos, unthrottled, %s" % (n, label), fast, "x real time", goals[(n, kind)],
+                "speed_%d_%s_fast" % (n, kind))
+            row("simulation speed", "  the same on simavr's interpreter (before)", slow, "x real time", "",
+                "speed_%d_%s_fast_simavr_core" % (n, kind))
+            row("simulation speed", "  after / before", fast / slow, "", "", "speed_%d_%s_ratio_simavr_core" % (n, kind))
+            if other:
+                other_speed = statistics.median(x[key] for x in theirs)
+                row("simulation speed", "  the same on %s" % other[0], other_speed, "x real time", "",
+                    "speed_%d_%s_other" % (n, kind))
+                row("simulation speed", "  this build / %s" % other[0], fast / other_speed, "", "",
+                    "speed_%d_%s_ratio_other" % (n, kind))
 
 
 def firmware_figures(bench, elf, quick, row, r):
@@ -476,11 +602,24 @@ def main():
     ap.add_argument("--sdk-loop-only", action="store_true",
                     help="only the DynamixelSDK loop per USB adapter kind and its wire-time floor")
     ap.add_argument("--dashboard-only", action="store_true",
-                    help="only the 30-servo SDK loop without and with the dashboard open")
+                    help="only the 30-servo SDK loop without and with the dashboard open (and on the hexapod, "
+                    "its 3D view open)")
     ap.add_argument("--bootloader-only", action="store_true",
                     help="only the bootloader's size and the time of an update over the bus")
+    ap.add_argument("--robot-only", action="store_true",
+                    help="only the hexapod's figures: speed, the physics' share (callgrind), the SDK loop")
     ap.add_argument("--firmware-only", action="store_true",
                     help="only the ATmega88 application's size, reply timing, sustained load and host cost")
+    ap.add_argument("--speed-only", action="store_true",
+                    help="only the simulation speed (1, 18 and 30 servos unthrottled, idle and under the client loop) "
+                    "and the host cost of the 30-servo client loop (callgrind)")
+    ap.add_argument("--before-build", metavar="BUILD",
+                    help="with --speed-only: the same figures of another build's ax12-bench and ATmega88 ELF, run by "
+                    "turns with this build's in the same run (bench.json: keys ending _other)")
+    ap.add_argument("--load", action="store_true",
+                    help="only real time on a busy machine: DynamixelSDK's ping and client suite quiet and under "
+                    "busy processes of its own (scripts/bench_load.py)")
+    ap.add_argument("--load-runs", type=int, default=20, help="with --load: runs of the client suite under load")
     ap.add_argument("--elf", help="with --firmware-only: this ATmega88 ELF instead of the build's")
     ap.add_argument("--before-elf", help="with --firmware-only: measure this ATmega88 ELF too, in the same run, and "
                     "print its figures beside the other's (bench.json: its keys prefixed before_)")
@@ -498,6 +637,44 @@ def main():
         rows.append((section, name, value, unit, goal))
         if key:
             r[key] = value
+
+    if a.load:
+        import bench_load
+        failures_log = os.path.splitext(a.out)[0] + "-load-failures.log"
+        if os.path.exists(failures_log):
+            os.remove(failures_log)
+        notes = bench_load.run_load(a.build, a.load_runs, 300 if a.quick else 1000, row, r, failures_log)
+        print("real time on a busy machine: %d CPUs" % (os.cpu_count() or 1))
+        section = None
+        for sec, name, value, unit, goal in rows:
+            if sec != section:
+                print("\n" + sec)
+                section = sec
+            print("  %-52s %16s %-8s %s" % (name, value if isinstance(value, str) else "%.3f" % value, unit, goal))
+        print("\n".join(notes))
+        with open(a.out, "w") as f:
+            json.dump(r, f, indent=1, sort_keys=True)
+        print("\nbench: wrote %s" % a.out)
+        return
+
+    if a.speed_only:
+        other = None
+        if a.before_build:
+            other = (a.before_build, os.path.join(a.before_build, "model", "tools", "ax12-bench"),
+                     os.path.join(a.before_build, "firmware", "ax12-ax12-atmega88.elf"))
+        load_before = os.getloadavg()
+        speed_figures(bench, elf, runs, row, other)
+        host_cost_figure(bench, elf, row, other)
+        load_after = os.getloadavg()
+        print("speed of %s on %d CPUs; load average (1, 5, 15 min) %.2f %.2f %.2f at the start, %.2f %.2f %.2f "
+              "at the end" % (a.build, os.cpu_count() or 1, *load_before, *load_after))
+        for _, name, value, unit, goal in rows:
+            print("  %-60s %14s %-12s %s" % (name, "%.3f" % value if isinstance(value, float) else value, unit, goal))
+        r["load_average_1min_start"], r["load_average_1min_end"] = load_before[0], load_after[0]
+        with open(a.out, "w") as f:
+            json.dump(r, f, indent=1, sort_keys=True)
+        print("\nbench: wrote %s" % a.out)
+        return
 
     if a.bootloader_only:
         bootloader_figures(emu, fw, a.build, row)
@@ -538,8 +715,18 @@ def main():
 
     if a.dashboard_only:
         dashboard_cost(emu, fw, 3 if a.quick else 6, row)
+        dashboard_robot_cost(emu, fw, 3 if a.quick else 6, row)
         for _, name, value, unit, goal in rows:
             print("%-52s %10.3f %-8s %s" % (name, value, unit, goal))
+        with open(a.out, "w") as f:
+            json.dump(r, f, indent=1, sort_keys=True)
+        print("\nbench: wrote %s" % a.out)
+        return
+
+    if a.robot_only:
+        robot_figures(bench, emu, fw, elf, 3 if a.quick else 6, runs, row)
+        for _, name, value, unit, goal in rows:
+            print("%-70s %14s %-12s %s" % (name, "%.3f" % value if isinstance(value, float) else value, unit, goal))
         with open(a.out, "w") as f:
             json.dump(r, f, indent=1, sort_keys=True)
         print("\nbench: wrote %s" % a.out)
@@ -577,25 +764,7 @@ def main():
     except subprocess.CalledProcessError as e:
         print("bench: awake share not measured: %s" % e, file=sys.stderr)
 
-    # Each speed beside the same on simavr's own interpreter (AX12_SIM_CORE=simavr), run by
-    # turns so that both meet the same load; their ratio is the figure a loaded machine keeps.
-    goals = {(1, "idle"): ">= 1", (1, "loaded"): ">= 1", (18, "idle"): ">= 1", (18, "loaded"): ">= 4",
-             (30, "idle"): ">= 20", (30, "loaded"): ">= 2.5"}
-    for n in (1, 18, 30):
-        speeds, before = [], []
-        for _ in range(runs):
-            speeds.append(run_json([bench, "speed", elf, str(n), "1"]))
-            before.append(run_json([bench, "speed", elf, str(n), "1"], SIMAVR_CORE_ENV))
-        for kind, label in (("idle", "idle"), ("loaded", "client loop")):
-            key = "%s_sim_s_per_wall_s" % kind
-            fast = statistics.median(x[key] for x in speeds)
-            slow = statistics.median(x[key] for x in before)
-            row("simulation speed", "%d servos, unthrottled, %s" % (n, label), fast, "x real time", goals[(n, kind)],
-                "speed_%d_%s_fast" % (n, kind))
-            row("simulation speed", "  the same on simavr's interpreter (before)", slow, "x real time", "",
-                "speed_%d_%s_fast_simavr_core" % (n, kind))
-            row("simulation speed", "  after / before", fast / slow, "", "", "speed_%d_%s_ratio_simavr_core" % (n, kind))
-
+    speed_figures(bench, elf, runs, row)
     host_cost_figure(bench, elf, row)
 
     ping = sdk_ping_median_ms(emu, fw, 50 if a.quick else 200)
@@ -604,6 +773,8 @@ def main():
     row("real clients", "DynamixelSDK ping, median (wire)", ping, "ms", "", "sdk_ping_wire_median_ms")
     loop_table = sdk_loop_table(emu, fw, 3 if a.quick else 6, row, r)
     dashboard_cost(emu, fw, 3 if a.quick else 6, row)
+    dashboard_robot_cost(emu, fw, 3 if a.quick else 6, row)
+    robot_figures(bench, emu, fw, elf, 3 if a.quick else 6, runs, row)
 
     report = os.path.join(os.path.dirname(os.path.abspath(__file__)), "model_report")
     if os.path.exists(report):

@@ -69,6 +69,32 @@ bool eeprom_store_image_fields(const uint8_t *eeprom, size_t size, uint8_t *id, 
   return true;
 }
 
+static bool slot_blank(const uint8_t *slot) {
+  for (size_t i = 0; i < DXL_IMAGE_SLOT_BYTES; i++) {
+    if (slot[i] != 0xFFu) {
+      return false;
+    }
+  }
+  return true;
+}
+
+bool eeprom_store_cut_slot(const uint8_t *eeprom, size_t size) {
+  if (size < DXL_IMAGE_BYTES) {
+    return false;
+  }
+  unsigned valid = 0;
+  bool damaged = false;
+  for (uint8_t slot = 0; slot < DXL_IMAGE_SLOTS; slot++) {
+    const uint8_t *const bytes = &eeprom[dxl_image_slot_offset(slot)];
+    if (dxl_image_slot_is_valid(bytes)) {
+      valid++;
+    } else if (!slot_blank(bytes)) {
+      damaged = true;
+    }
+  }
+  return valid == 1u && damaged;
+}
+
 int eeprom_store_load(const char *path, uint8_t *eeprom, size_t size, char *err, size_t err_len) {
   memset(eeprom, 0xFF, size);
   off_t file_size;

@@ -26,6 +26,12 @@ void eeprom_store_seed(uint8_t *eeprom, size_t size, eeprom_profile_t profile, u
  * ID and Baud Rate of its newest valid slot, as stored. */
 bool eeprom_store_image_fields(const uint8_t *eeprom, size_t size, uint8_t *id, uint8_t *baud_reg);
 
+/* True when one slot of the EEPROM's image is valid and the other is neither valid nor blank
+ * (erased, 0xFF): the settings being stored into that one did not all get there (a store cut
+ * by a power loss or a kill, or a damaged file), so the servo boots the valid one, the
+ * settings stored before. */
+bool eeprom_store_cut_slot(const uint8_t *eeprom, size_t size);
+
 /* Reads path into eeprom[0..size): a shorter file leaves the rest blank (0xFF), a longer one
  * is cut. Returns 1 when read, 0 when the file does not exist, -1 on error (err set), which
  * includes a path that is not a regular file (a FIFO is refused without waiting for it). */

@@ -5,13 +5,19 @@
  * simulation is ahead of the wall clock, waking early when the client writes (poll on the
  * pty). When the simulation falls behind (the host is too slow for the number of servos),
  * it runs flat out; a lag beyond PACING_MAX_LAG_US is dropped (the clocks are re-aligned) so
- * the emulator does not race to catch up. Ahead/behind figures are kept for reports. */
+ * the emulator does not race to catch up. Ahead/behind figures are kept for reports.
+ *
+ * With a real-time policy (rt_policy.h, pacing_hold_rt) the pacing thread is never preempted by
+ * an ordinary process, so it leaves its CPU or its policy by itself as rt_guard.h says: it
+ * yields the CPU for a moment after a long run behind the clock, and drops the policy when it
+ * stays late, taking it again once on time. */
 #ifndef SIM_PACING_H
 #define SIM_PACING_H
 
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "rt_guard.h"
 #include "sim_time.h"
 
 #define PACING_MAX_LAG_US 200000.0
@@ -26,15 +32,38 @@ typedef struct {
   double slept_us;
   double started_wall_us;
   sim_cycles_t started_sim;
+  /* The calling thread's real-time policy (pacing_hold_rt): held or dropped, yields, drops. */
+  bool rt_wanted;          /* it was taken */
+  int rt_priority;
+  rt_guard_t rt;
+  bool stopped;            /* pacing_stop: the speed is that of the paced run */
+  double stopped_wall_us;
+  sim_cycles_t stopped_sim;
 } pacing_t;
 
 double pacing_wall_us(void);
 
 void pacing_start(pacing_t *pacing, bool realtime, sim_cycles_t sim_now);
 
+/* The calling thread holds a real-time policy at priority (rt_policy_take succeeded): from
+ * now on pacing_wait yields, drops and takes it again as rt_guard.h says. */
+void pacing_hold_rt(pacing_t *pacing, int priority);
+
+/* The calling thread leaves its real-time policy for good (before running the world flat out
+ * at shutdown). */
+void pacing_release_rt(pacing_t *pacing);
+
 /* After a pause in which simulated time stood still (a debugger held the world): the
  * reference moves to now, so the pause is neither lag nor caught up. */
 void pacing_resume(pacing_t *pacing, sim_cycles_t sim_now);
+
+/* As pacing_resume, and the figures (worst lag, re-alignments, speed, the real-time policy's
+ * yields and drops) start again from now: those of the serving, not of the boot before it. */
+void pacing_restart(pacing_t *pacing, sim_cycles_t sim_now);
+
+/* The paced run ends at sim_now (what runs after it, the settling at shutdown, is not paced):
+ * pacing_speed is that of the run up to here. */
+void pacing_stop(pacing_t *pacing, sim_cycles_t sim_now);
 
 /* Simulated minus wall time since the reference, in microseconds (positive: ahead). */
 double pacing_ahead_us(const pacing_t *pacing, sim_cycles_t sim_now);
@@ -47,7 +76,11 @@ bool pacing_wait(pacing_t *pacing, sim_cycles_t sim_now, int fd);
  * reference (never before the reference's simulated time). */
 sim_cycles_t pacing_sim_at(const pacing_t *pacing, double wall_us);
 
-/* Simulated seconds per wall second since pacing_start. */
+/* The wall time (pacing_wall_us) that corresponds to simulated time sim by the current
+ * reference. */
+double pacing_wall_at(const pacing_t *pacing, sim_cycles_t sim);
+
+/* Simulated seconds per wall second since pacing_start (or pacing_restart), up to pacing_stop. */
 double pacing_speed(const pacing_t *pacing, sim_cycles_t sim_now);
 
 #endif

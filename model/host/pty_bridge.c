@@ -1,4 +1,5 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
+#define _GNU_SOURCE /* pthread_setname_np */
 #include "pty_bridge.h"
 
 #include <errno.h>
@@ -59,11 +60,26 @@ static void set_nonblock(int fd) {
   (void)fcntl(fd, F_SETFD, FD_CLOEXEC);
 }
 
+/* The calling thread's run-queue delay so far (time runnable but waiting for a CPU), in
+ * microseconds, from its /proc/thread-self/schedstat opened as fd; 0 when unknown. */
+static double run_delay_us(int fd) {
+  char text[96];
+  const ssize_t n = fd >= 0 ? pread(fd, text, sizeof(text) - 1u, 0) : -1;
+  if (n <= 0) {
+    return 0.0;
+  }
+  text[n] = '\0';
+  unsigned long long run_ns = 0, wait_ns = 0;
+  return sscanf(text, "%llu %llu", &run_ns, &wait_ns) == 2 ? (double)wait_ns / 1e3 : 0.0;
+}
+
 /* The reader thread: drains the master as soon as the client writes, so nothing the client
- * wrote is still in the pty when it flushes its output (tcflush) before the next packet. */
+ * wrote is still in the pty when it flushes its output (tcflush) before the next packet.
+ * Each chunk carries how long the reader waited for a CPU after its bytes woke it. */
 static void *reader_main(void *arg) {
   pty_bridge_t *pty = arg;
   uint8_t buf[4096];
+  const int schedstat_fd = open("/proc/thread-self/schedstat", O_RDONLY | O_CLOEXEC);
   for (;;) {
     uint32_t room;
     pthread_mutex_lock(&pty->lock);
@@ -78,6 +94,7 @@ static void *reader_main(void *arg) {
       break;
     }
     struct pollfd fds[2] = {{.fd = pty->master_fd, .events = POLLIN}, {.fd = pty->stop_pipe[0], .events = POLLIN}};
+    const double waited_before_us = run_delay_us(schedstat_fd);
     const int r = poll(fds, 2, -1);
     if (r < 0) {
       if (errno == EINTR) {
@@ -101,6 +118,7 @@ static void *reader_main(void *arg) {
       continue;
     }
     const double wall = pacing_wall_us();
+    const double reader_wait_us = run_delay_us(schedstat_fd) - waited_before_us;
     const double bps = pty_get_bps(pty->master_fd); /* the speed the client set before writing */
     pthread_mutex_lock(&pty->lock);
     const uint32_t offset = (pty->inbox_head + pty->inbox_used) % PTY_BRIDGE_INBOX_BYTES;
@@ -109,11 +127,14 @@ static void *reader_main(void *arg) {
     }
     pty->inbox_used += (uint32_t)n;
     pty->chunks[(pty->chunk_head + pty->chunk_count) % PTY_BRIDGE_INBOX_CHUNKS] =
-        (pty_in_chunk_t){.wall_us = wall, .bps = bps, .offset = offset, .len = (uint32_t)n};
+        (pty_in_chunk_t){.wall_us = wall, .reader_wait_us = reader_wait_us, .bps = bps, .offset = offset, .len = (uint32_t)n};
     pty->chunk_count++;
     pthread_mutex_unlock(&pty->lock);
     const char wake = 1;
     (void)!write(pty->wake_pipe[1], &wake, 1); /* a full pipe is awake already */
+  }
+  if (schedstat_fd >= 0) {
+    close(schedstat_fd);
   }
   return NULL;
 }
@@ -143,6 +164,7 @@ static int start_reader(pty_bridge_t *pty, char *err, size_t err_len) {
     return -1;
   }
   pty->reader_started = true;
+  (void)pthread_setname_np(pty->reader, "ax12-pty-reader");
   return 0;
 }
 
@@ -287,8 +309,9 @@ static bool byte_due(const pty_bridge_t *pty, sim_cycles_t now) {
 /* Feeds the adapter every byte whose stop bit has ended by the world's time, lets its timer
  * run to that time, and writes what it hands to the host: one write per USB packet, or with
  * the wire adapter every due byte in one write. */
-static bool write_due(pty_bridge_t *pty) {
+static bool write_due(pty_bridge_t *pty, const pacing_t *pacing) {
   const sim_cycles_t now = *pty->now;
+  const double wall = pacing ? pacing_wall_us() : 0.0;
   usb_adapter_t *a = &pty->adapter;
   const bool per_packet = a->config.kind != USB_ADAPTER_WIRE;
   size_t released = 0; /* wire: bytes handed to the host, written together at the end */
@@ -304,6 +327,9 @@ static bool write_due(pty_bridge_t *pty) {
     }
     while (usb_adapter_pop(a, &packet)) { /* after every byte: the ring stays short */
       moved = true;
+      if (pacing) {
+        delay_histogram_add(&pty->to_client_late, wall - pacing_wall_at(pacing, packet.at));
+      }
       if (per_packet) {
         send_to_client(pty, packet.bytes);
       } else {
@@ -317,9 +343,25 @@ static bool write_due(pty_bridge_t *pty) {
   return moved;
 }
 
+/* Chunk c's first bit goes on the wire now, at wall time `wall` (pty_bridge.h, to_bus_delay). */
+static void record_to_bus_delay(pty_bridge_t *pty, const pty_in_chunk_t *c, const pacing_t *pacing, double wall) {
+  const double frame_wait_us = sim_cycles_to_us(c->at - c->entry);
+  double entered_us = wall - frame_wait_us;
+  if (pacing) {
+    const double stands_for_us = pacing_wall_at(pacing, c->entry);
+    if (stands_for_us > entered_us) {
+      entered_us = stands_for_us;
+    }
+  }
+  delay_histogram_add(&pty->to_bus_delay, entered_us - c->wall_us + c->reader_wait_us);
+  if (c->reader_wait_us > pty->reader_wait_max_us) {
+    pty->reader_wait_max_us = c->reader_wait_us;
+  }
+}
+
 /* Stamps newly queued chunks with their simulated arrival, then puts the due ones on the
  * wire. Called with the lock held. */
-static bool take_client(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx, double wall_us), void *ctx) {
+static bool take_client(pty_bridge_t *pty, const pacing_t *pacing, double wall) {
   const sim_cycles_t now = *pty->now;
   sim_cycles_t previous = now;
   if (pty->chunk_stamped) {
@@ -331,8 +373,8 @@ static bool take_client(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx
     if (pty->anchored) {
       const double since = c->wall_us - pty->anchor_wall_us;
       sim_cycles_t target = pty->anchor_sim + (since > 0.0 ? (sim_cycles_t)(since * SIM_CYCLES_PER_US) : 0u);
-      if (sim_of_wall) {
-        const sim_cycles_t paced = sim_of_wall(ctx, c->wall_us);
+      if (pacing) {
+        const sim_cycles_t paced = pacing_sim_at(pacing, c->wall_us);
         if (paced < target) {
           target = paced;
         }
@@ -344,6 +386,7 @@ static bool take_client(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx
     if (at < previous) {
       at = previous; /* keep the client's order */
     }
+    c->entry = at;
     c->at = previous = usb_adapter_tx_write(&pty->adapter, at, c->len);
   }
   pty->chunk_stamped = pty->chunk_count;
@@ -359,6 +402,7 @@ static bool take_client(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx
       }
     }
     const pty_in_chunk_t *c = &pty->chunks[pty->chunk_head];
+    record_to_bus_delay(pty, c, pacing, wall);
     use_client_bps(pty, c->bps);
     for (uint32_t i = 0; i < c->len; i++) {
       pty->last_from_client_end =
@@ -378,15 +422,15 @@ static bool take_client(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx
   return moved;
 }
 
-bool pty_bridge_pump(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx, double wall_us), void *ctx) {
+bool pty_bridge_pump(pty_bridge_t *pty, const pacing_t *pacing) {
   char drain[64];
   while (read(pty->wake_pipe[0], drain, sizeof(drain)) > 0) {
   }
   refresh_baud(pty);
-  bool moved = write_due(pty);
+  bool moved = write_due(pty, pacing);
   const double wall = pacing_wall_us();
   pthread_mutex_lock(&pty->lock);
-  moved |= take_client(pty, sim_of_wall, ctx);
+  moved |= take_client(pty, pacing, wall);
   pthread_mutex_unlock(&pty->lock);
   pty->anchor_wall_us = wall;
   pty->anchor_sim = *pty->now;
@@ -409,3 +453,5 @@ void pty_bridge_hold(pty_bridge_t *pty, bool held) { pty->held = held; }
 void pty_bridge_hide(pty_bridge_t *pty, bool hidden) { pty->hidden = hidden; }
 
 int pty_bridge_wake_fd(const pty_bridge_t *pty) { return pty->wake_pipe[0]; }
+
+pthread_t pty_bridge_reader(const pty_bridge_t *pty) { return pty->reader; }

@@ -31,6 +31,8 @@
 #include <stdint.h>
 
 #include "bus.h"
+#include "delay_histogram.h"
+#include "pacing.h"
 #include "sim_time.h"
 #include "usb_adapter.h"
 
@@ -49,9 +51,11 @@ typedef struct {
 
 typedef struct {
   double wall_us; /* CLOCK_MONOTONIC (pacing_wall_us) when read() returned */
+  double reader_wait_us; /* how long the reader, woken by these bytes, waited for a CPU */
   double bps;     /* the client's baud then (TCGETS2), 0 if unknown */
   uint32_t offset, len; /* bytes in the inbox ring */
-  sim_cycles_t at; /* simulated time it enters the wire (set by the simulation thread) */
+  sim_cycles_t entry; /* simulated time of its arrival (set by the simulation thread) */
+  sim_cycles_t at; /* ... and when it enters the wire, after the adapter's frame wait */
 } pty_in_chunk_t;
 
 typedef struct {
@@ -91,6 +95,18 @@ typedef struct {
   uint64_t from_client;
   uint64_t to_client;
   uint64_t dropped_to_client; /* the client did not read and the pty buffer was full */
+  /* Wall-clock delays in real time (docs/emulator.md "Real time on a busy machine"):
+   * to_bus_delay: from a client's bytes readable on the master (the reader's wake-up) to
+   *   their first bit on the simulated wire, the adapter's modelled frame wait left out, as
+   *   the client lives it: the later of the wall time the simulation put them there and the
+   *   wall time their simulated entry stands for (a simulation ahead of the clock).
+   * to_client_late: how late each hand-over of the adapter (wire: each byte) reaches the pty
+   *   against the wall time its simulated time stands for (the simulation's lag then).
+   * reader_wait_max_us: the longest the reader, woken by the client's bytes, waited for a CPU
+   *   (its run-queue delay, /proc/thread-self/schedstat; part of to_bus_delay). */
+  delay_histogram_t to_bus_delay;
+  delay_histogram_t to_client_late;
+  double reader_wait_max_us;
   /* Another master (the dashboard's packets, emu_bus_master.h) wants or has the bus. */
   bool held;   /* pty_bridge_hold() */
   bool hidden; /* pty_bridge_hide() */
@@ -106,11 +122,15 @@ void pty_bridge_close(pty_bridge_t *pty);
 /* Writes every byte whose stop bit has ended by the world's time, then puts the client's
  * queued chunks on the wire whose arrival time has come. A chunk that arrived at wall time w
  * enters at max(now, S(w)): S(w) is the simulated time of w by the real-time pacing
- * (sim_of_wall; NULL in --fast mode), and at most the simulated time of the previous pump
- * plus the wall time since then (a simulation behind the wall clock treats itself as being
- * at the wall clock at every pump, rather than queueing a client's bytes behind its lag).
- * Returns true if a byte moved. */
-bool pty_bridge_pump(pty_bridge_t *pty, sim_cycles_t (*sim_of_wall)(void *ctx, double wall_us), void *ctx);
+ * (pacing_sim_at; pacing NULL in --fast mode), and at most the simulated time of the previous
+ * pump plus the wall time since then (a simulation behind the wall clock treats itself as
+ * being at the wall clock at every pump, rather than queueing a client's bytes behind its
+ * lag). Records the delays (to_bus_delay, to_client_late) in real time. Returns true if a
+ * byte moved. */
+bool pty_bridge_pump(pty_bridge_t *pty, const pacing_t *pacing);
+
+/* The reader thread (for its name and scheduling policy). */
+pthread_t pty_bridge_reader(const pty_bridge_t *pty);
 
 /* The simulated time at which the next queued client chunk enters the wire (already
  * stamped by a pump), or SIM_CYCLES_NEVER. Run the world no further before pumping again. */

@@ -9,6 +9,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "state_write_behind.h"
+
 int state_file_open(const char *path, off_t *size, char *err, size_t err_len) {
   /* O_NONBLOCK: opening a FIFO must not wait for a writer; it is refused below. */
   const int fd = open(path, O_RDONLY | O_CLOEXEC | O_NONBLOCK);
@@ -45,6 +47,13 @@ static int write_all(int fd, const uint8_t *data, size_t size) {
 }
 
 int state_file_replace(const char *path, const void *data, size_t size, char *err, size_t err_len) {
+  if (state_write_behind_active()) {
+    return state_write_behind_queue(path, data, size, err, err_len);
+  }
+  return state_file_replace_now(path, data, size, err, err_len);
+}
+
+int state_file_replace_now(const char *path, const void *data, size_t size, char *err, size_t err_len) {
   char tmp[4096];
   if (snprintf(tmp, sizeof(tmp), "%s.tmp.%ld", path, (long)getpid()) >= (int)sizeof(tmp)) {
     snprintf(err, err_len, "state file path too long: %s", path);

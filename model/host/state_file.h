@@ -16,7 +16,12 @@
  * writer). Returns the descriptor with *size set, STATE_FILE_ABSENT, or -1 with err set. */
 int state_file_open(const char *path, off_t *size, char *err, size_t err_len);
 
-/* Replaces path with data[0..size) atomically. Returns 0, or -1 with err set. */
+/* Replaces path with data[0..size) atomically. Returns 0, or -1 with err set. While writes go
+ * behind (state_write_behind.h), queues a copy instead and returns at once (-1 then reports a
+ * write behind that failed). */
 int state_file_replace(const char *path, const void *data, size_t size, char *err, size_t err_len);
+
+/* Replaces path now, in the calling thread, whatever state_write_behind says. */
+int state_file_replace_now(const char *path, const void *data, size_t size, char *err, size_t err_len);
 
 #endif

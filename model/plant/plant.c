@@ -362,3 +362,54 @@ double ax12_plant_temp_sense_mv(const ax12_plant_t *plant)
 {
     return adc_pin_mv(500.0 + 10.0 * plant->state.thermal.case_c);
 }
+
+/* ---- The shaft driven by a rigid-body engine (plant_joint.h) ---- */
+
+/* duty clamped to -1..+1, NaN as 0 (as ax12_plant_step takes it) */
+static double usable_duty(double duty)
+{
+    return isnan(duty) ? 0.0 : (duty > 1.0 ? 1.0 : (duty < -1.0 ? -1.0 : duty));
+}
+
+double ax12_plant_output_drive_nm(const ax12_plant_t *plant, double duty, double speed_rad_s,
+                                  double *slope_nm_s_rad)
+{
+    const ax12_plant_params_t *p = &plant->params;
+    loops_t ls;
+    loops_at(plant, usable_duty(duty), &ls);
+    const loop_t *l = loop_at(&ls, speed_rad_s);
+    if (slope_nm_s_rad != NULL) {
+        *slope_nm_s_rad = l->d1_nm_s;
+    }
+    return ax12_gearbox_drive_nm(&p->gearbox,
+                                 ax12_motor_torque_nm(&p->motor, loop_current_a(plant, l, speed_rad_s)));
+}
+
+double ax12_plant_step_electrics(ax12_plant_t *plant, double duty, double dt_s, double *slope_nm_s_rad)
+{
+    const ax12_plant_params_t *p = &plant->params;
+    ax12_plant_state_t *s = &plant->state;
+    s->duty = usable_duty(duty);
+    s->stuck = false;
+    loops_t ls;
+    loops_at(plant, s->duty, &ls);
+    const double w = s->speed_rad_s;
+    const loop_t *l = loop_at(&ls, w);
+    const double i_a = loop_current_a(plant, l, w);
+    const double drive_nm = ax12_gearbox_drive_nm(&p->gearbox, ax12_motor_torque_nm(&p->motor, i_a));
+    if (slope_nm_s_rad != NULL) {
+        *slope_nm_s_rad = l->d1_nm_s;
+    }
+    if (!(dt_s > 0.0)) {
+        return drive_nm;
+    }
+    update_electrics(plant, &ls);
+    /* the friction's heat as the substep's: brush, gear sliding with the drive, viscous */
+    const double friction_w = (p->gearbox.ratio * ax12_motor_friction_nm(&p->motor) +
+                               ax12_gearbox_sliding_friction_nm(&p->gearbox, drive_nm) +
+                               p->gearbox.viscous_nm_s_rad * fabs(w)) * fabs(w);
+    const double winding_w = i_a * i_a * ls.r_winding_ohm;
+    const double case_w = ax12_bridge_loss_w(&p->bridge, &l->path, i_a) + friction_w + s->terminal_v * p->supply.standby_a;
+    ax12_thermal_step(&p->thermal, &s->thermal, winding_w, case_w, p->ambient_c, dt_s);
+    return drive_nm;
+}

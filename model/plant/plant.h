@@ -85,6 +85,20 @@ double ax12_plant_terminal_v(const ax12_plant_t *plant);
 double ax12_plant_winding_temp_c(const ax12_plant_t *plant);
 double ax12_plant_case_temp_c(const ax12_plant_t *plant);
 
+/* The shaft driven by someone else (a rigid-body engine: plant_joint.h). The drive at the
+ * output, N x Kt x winding current, at duty and output speed speed_rad_s, before the gears'
+ * losses (ax12_gearbox_drive_share, the friction of plant_joint.h); *slope_nm_s_rad (when not
+ * NULL) its fall per rad/s there, the back-EMF's damping of the bridge's path at that speed
+ * (0 while the coasting bridge is open). */
+double ax12_plant_output_drive_nm(const ax12_plant_t *plant, double duty, double speed_rad_s,
+                                  double *slope_nm_s_rad);
+/* Steps the electrics and the heat by dt_s at duty (as ax12_plant_step: the gears' friction
+ * heat included) with the shaft turning at state.speed_rad_s, which this does not change: the
+ * mechanics are not integrated. Returns the drive at that speed, as
+ * ax12_plant_output_drive_nm gives it, and its slope in *slope_nm_s_rad (when not NULL).
+ * dt_s <= 0 steps nothing. */
+double ax12_plant_step_electrics(ax12_plant_t *plant, double duty, double dt_s, double *slope_nm_s_rad);
+
 /* ADC inputs, mV, each clamped to the 0..5000 mV the pin can see. */
 double ax12_plant_pot_mv(const ax12_plant_t *plant);          /* ADC0 */
 double ax12_plant_supply_sense_mv(const ax12_plant_t *plant); /* ADC1: terminal V / 5 */

@@ -1,8 +1,9 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 #include "fast_core.h"
+#include "fast_core_flags.h"
+#include "fast_interrupts.h"
 
 #include <endian.h>
-#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -41,6 +42,10 @@ typedef enum {
   OP_COUNT
 } fc_op_t;
 
+/* The interpreter's handlers: one per fc_op_t, and near_end (see run()). */
+#define HANDLER_NEAR_END OP_COUNT
+#define HANDLERS (OP_COUNT + 1)
+
 typedef struct {
   const void *handler; /* the interpreter's label for op */
   uint16_t word;       /* the flash word this entry was decoded from */
@@ -48,7 +53,7 @@ typedef struct {
   uint8_t d;           /* destination register, I/O data address, pointer pair */
   uint8_t r;           /* source register, bit number, displacement */
   uint8_t x;           /* immediate byte, bit mask, pointer register */
-  uint16_t k;          /* RJMP/RCALL: target (byte address); BRBS/BRBC: signed byte offset */
+  uint16_t k;          /* RJMP/RCALL: target (byte address); BRBS/BRBC: signed byte offset from the branch */
 } fc_insn_t;
 
 _Static_assert(sizeof(fc_insn_t) == 16, "code[pc / 2] is found as code + pc * 8");
@@ -62,12 +67,14 @@ struct fast_core {
  * _avr_set_ram/_avr_get_ram bound), SRAM included on parts whose RAM starts below it. */
 #define IO_END (MAX_IOs + 31)
 
-static inline uint16_t flash_word(const avr_t *avr, uint32_t pc) {
-  return (uint16_t)(avr->flash[pc] | (avr->flash[pc + 1] << 8));
+static inline uint16_t flash_word(const uint8_t *flash, uint32_t pc) {
+  uint16_t w;
+  memcpy(&w, flash + pc, sizeof(w));
+  return le16toh(w);
 }
 
-static bool next_is_two_words(const avr_t *avr, uint32_t pc) {
-  const uint16_t o = flash_word(avr, pc) & 0xfc0f;
+static inline bool next_is_two_words(const uint8_t *flash, uint32_t pc) {
+  const uint16_t o = flash_word(flash, pc) & 0xfc0f;
   return o == 0x9200 || o == 0x9000 || o == 0x940c || o == 0x940d || o == 0x940e || o == 0x940f;
 }
 
@@ -252,7 +259,7 @@ static void decode_op(const avr_t *avr, fc_insn_t *e, uint32_t pc, uint16_t w) {
       const int16_t o = (int16_t)((int16_t)(w << 6) >> 9);
       e->op = (w & 0x0400) ? OP_BRBC : OP_BRBS;
       e->r = w & 7;
-      e->k = (uint16_t)(o * 2); /* signed: added to the next instruction's address */
+      e->k = (uint16_t)(2 + o * 2); /* signed: added to the branch's address */
       return;
     }
     case 0xf800: e->op = OP_BLD; break;
@@ -270,9 +277,18 @@ static void decode_op(const avr_t *avr, fc_insn_t *e, uint32_t pc, uint16_t w) {
 /* The interpreter's handler labels by fc_op_t (run(NULL, NULL, &table) hands them out). */
 typedef const void *const *fc_handlers_t;
 
+/* The next PC of the entry at pc may lie past the flash: it is among the last three words
+ * (a skip over a two-word instruction goes 6 bytes on), or a branch whose target lies outside. */
+static bool near_end(const avr_t *avr, const fc_insn_t *e, uint32_t pc) {
+  if (pc + 6 >= avr->flashend) {
+    return true;
+  }
+  return (e->op == OP_BRBS || e->op == OP_BRBC) && pc + (uint32_t)(int32_t)(int16_t)e->k >= avr->flashend;
+}
+
 static void decode(const avr_t *avr, fc_insn_t *e, uint32_t pc, uint16_t w, fc_handlers_t handlers) {
   decode_op(avr, e, pc, w);
-  e->handler = handlers[e->op];
+  e->handler = handlers[near_end(avr, e, pc) ? HANDLER_NEAR_END : e->op];
 }
 
 /* ---- what leaves the core: simavr's I/O handlers and IRQs, SREG, its crash ---- */
@@ -290,33 +306,10 @@ static inline void sreg_set(avr_t *avr, uint8_t flag, uint8_t v) {
   avr->sreg[flag] = v;
 }
 
-/* avr_raise_irq_float(irq, v, floating) of simavr 1.6, without the call when nothing hooks the
- * IRQ (no trace, no part listens): the value and flags it leaves, set here. With a hook,
- * simavr's own. */
-static inline void irq_raise_float(avr_irq_t *irq, uint32_t v, int floating) {
-  if (irq->hook) {
-    avr_raise_irq_float(irq, v, floating);
-    return;
-  }
-  const uint32_t out = (irq->flags & IRQ_FLAG_NOT) ? !v : v;
-  if (irq->value == out && (irq->flags & IRQ_FLAG_FILTERED) && !(irq->flags & IRQ_FLAG_INIT)) {
-    return;
-  }
-  irq->flags &= ~(IRQ_FLAG_INIT | IRQ_FLAG_FLOATING);
-  if (floating) {
-    irq->flags |= IRQ_FLAG_FLOATING;
-  }
-  irq->value = out;
-}
-
-static inline void irq_raise(avr_irq_t *irq, uint32_t v) {
-  irq_raise_float(irq, v, !!(irq->flags & IRQ_FLAG_FLOATING));
-}
-
 static void raise_io_irqs(avr_irq_t *irq, uint8_t v) {
-  irq_raise(irq + AVR_IOMEM_IRQ_ALL, v);
+  fast_irq_raise(irq + AVR_IOMEM_IRQ_ALL, v);
   for (int i = 0; i < 8; i++) {
-    irq_raise(irq + i, (v >> i) & 1);
+    fast_irq_raise(irq + i, (v >> i) & 1);
   }
 }
 
@@ -344,21 +337,6 @@ static inline bool load_is_plain(const avr_t *avr, uint16_t addr, uint16_t ramen
   return addr != R_SREG && !avr->io[io].r.c && !avr->io[io].irq;
 }
 
-/* SREG's eight flag bytes from its value: byte i is bit i (filled by fast_core_new). */
-static uint64_t sreg_bytes_of[256];
-
-static pthread_once_t sreg_bytes_filled = PTHREAD_ONCE_INIT;
-
-static void fill_sreg_bytes(void) {
-  for (unsigned v = 0; v < 256; v++) {
-    uint64_t bytes = 0;
-    for (unsigned i = 0; i < 8; i++) {
-      bytes |= (uint64_t)((v >> i) & 1) << (8 * i);
-    }
-    sreg_bytes_of[v] = bytes;
-  }
-}
-
 /* A write to SREG with no I/O handler or IRQ on it, as simavr's _avr_set_r does it: the byte,
  * the mirror (flag by flag, only I has a side effect: SEI's delay, or no interrupt), the byte. */
 static inline void sreg_write(avr_t *avr, uint8_t v) {
@@ -369,7 +347,7 @@ static inline void sreg_write(avr_t *avr, uint8_t v) {
   } else {
     avr->interrupt_state = 0;
   }
-  memcpy(avr->sreg, &sreg_bytes_of[v], 8);
+  memcpy(avr->sreg, &fc_flags.sreg[v], 8);
   avr->data[R_SREG] = v;
 }
 
@@ -443,55 +421,7 @@ static __attribute__((noinline)) uint8_t load_slow(avr_t *avr, uint16_t addr) {
   return avr->data[addr];
 }
 
-/* ---- flags ---- */
-
-static inline void flags_zns(uint8_t *s, uint8_t res) {
-  s[S_Z] = res == 0;
-  s[S_N] = (res >> 7) & 1;
-  s[S_S] = s[S_N] ^ s[S_V];
-}
-
-static inline void flags_add(uint8_t *s, uint8_t res, uint8_t rd, uint8_t rr) {
-  const uint8_t carries = (uint8_t)((rd & rr) | (rr & ~res) | (~res & rd));
-  const uint8_t v = (((rd & rr & ~res) | (~rd & ~rr & res)) >> 7) & 1;
-  const uint8_t n = (res >> 7) & 1;
-  s[S_H] = (carries >> 3) & 1;
-  s[S_C] = (carries >> 7) & 1;
-  s[S_V] = v;
-  s[S_Z] = res == 0;
-  s[S_N] = n;
-  s[S_S] = n ^ v;
-}
-
-/* Subtraction: H, C, V, N, S; Z as given (plain, or kept-zero for SBC/CPC/SBCI). */
-static inline void flags_sub(uint8_t *s, uint8_t res, uint8_t rd, uint8_t rr, uint8_t z) {
-  const uint8_t borrows = (uint8_t)((~rd & rr) | (rr & res) | (res & ~rd));
-  const uint8_t v = (((rd & ~rr & ~res) | (~rd & rr & res)) >> 7) & 1;
-  const uint8_t n = (res >> 7) & 1;
-  s[S_H] = (borrows >> 3) & 1;
-  s[S_C] = (borrows >> 7) & 1;
-  s[S_V] = v;
-  s[S_Z] = z;
-  s[S_N] = n;
-  s[S_S] = n ^ v;
-}
-
-static inline void flags_logic(uint8_t *s, uint8_t res) {
-  const uint8_t n = (res >> 7) & 1;
-  s[S_V] = 0;
-  s[S_Z] = res == 0;
-  s[S_N] = n;
-  s[S_S] = n;
-}
-
-static inline void flags_shift_right(uint8_t *s, uint8_t res, uint8_t before) {
-  const uint8_t c = before & 1, n = res >> 7;
-  s[S_Z] = res == 0;
-  s[S_C] = c;
-  s[S_N] = n;
-  s[S_V] = n ^ c;
-  s[S_S] = c; /* N ^ V = N ^ N ^ C */
-}
+/* ---- flags (fast_core_flags.h) ---- */
 
 static inline void flags_word(uint8_t *s, uint16_t res, uint8_t v, uint8_t c) {
   const uint8_t n = (res >> 15) & 1;
@@ -503,27 +433,11 @@ static inline void flags_word(uint8_t *s, uint16_t res, uint8_t v, uint8_t c) {
 }
 
 static void invalid_opcode(avr_t *avr, uint32_t pc) {
-  AVR_LOG(avr, LOG_ERROR, "CORE: *** %04x: invalid opcode %04x, SP %04x\n", pc, flash_word(avr, pc),
+  AVR_LOG(avr, LOG_ERROR, "CORE: *** %04x: invalid opcode %04x, SP %04x\n", pc, flash_word(avr->flash, pc),
           avr->data[R_SPL] | (avr->data[R_SPH] << 8));
 }
 
 /* ---- interrupts: entry and return, as simavr 1.6's sim_interrupts.c ---- */
-
-DEFINE_FIFO(avr_int_vector_p, avr_int_pending);
-
-static inline int pending_count(avr_t *avr) { return !avr_int_pending_isempty(&avr->interrupts.pending); }
-
-/* avr_clear_interrupt, for the vector being entered. */
-static void clear_entered(avr_t *avr, avr_int_vector_t *vector) {
-  vector->pending = 0;
-  irq_raise(vector->irq + AVR_INT_IRQ_PENDING, 0);
-  const int pending = pending_count(avr);
-  irq_raise_float(avr->interrupts.irq + AVR_INT_IRQ_PENDING,
-                  pending ? avr_int_pending_read_at(&avr->interrupts.pending, 0)->vector : 0, !pending);
-  if (vector->raised.reg && !vector->raise_sticky) {
-    avr_regbit_clear(avr, vector->raised);
-  }
-}
 
 /* The return address of an interrupt: simavr's _avr_push_addr with this core's stores. */
 static void push_return(avr_t *avr, uint32_t pc) {
@@ -565,23 +479,23 @@ void fast_core_enter_interrupt(avr_t *avr) {
    * before the read, as Debian's build of simavr 1.6 computes it). */
   const unsigned slot = (table->pending.read + (unsigned)at) % avr_int_pending_fifo_size;
   table->pending.buffer[slot] = avr_int_pending_read(&table->pending);
-  irq_raise(table->irq + AVR_INT_IRQ_PENDING, (uint32_t)pending_count(avr));
+  fast_irq_raise(table->irq + AVR_INT_IRQ_PENDING, (uint32_t)fast_pending_any(avr));
   if (!avr_regbit_get(avr, vector->enable) || !vector->pending) {
     vector->pending = 0; /* disabled or cleared meanwhile */
-    avr->interrupt_state = (int8_t)pending_count(avr);
+    avr->interrupt_state = (int8_t)fast_pending_any(avr);
     return;
   }
   push_return(avr, avr->pc);
   sreg_set(avr, S_I, 0);
   avr->pc = (avr_flashaddr_t)(vector->vector * avr->vector_size);
-  irq_raise(vector->irq + AVR_INT_IRQ_RUNNING, 1);
-  irq_raise(table->irq + AVR_INT_IRQ_RUNNING, vector->vector);
+  fast_irq_raise(vector->irq + AVR_INT_IRQ_RUNNING, 1);
+  fast_irq_raise(table->irq + AVR_INT_IRQ_RUNNING, vector->vector);
   if (table->running_ptr == sizeof(table->running) / sizeof(table->running[0])) {
     AVR_LOG(avr, LOG_ERROR, "%s: nested interrupts past simavr's stack of them\n", __func__);
   } else {
     table->running[table->running_ptr++] = vector;
   }
-  clear_entered(avr, vector);
+  fast_clear_interrupt(avr, vector);
 }
 
 /* avr_interrupt_reti: the running interrupt ends. */
@@ -589,25 +503,32 @@ static void interrupt_return(avr_t *avr) {
   avr_int_table_p table = &avr->interrupts;
   if (table->running_ptr) {
     avr_int_vector_t *vector = table->running[--table->running_ptr];
-    irq_raise(vector->irq + AVR_INT_IRQ_RUNNING, 0);
+    fast_irq_raise(vector->irq + AVR_INT_IRQ_RUNNING, 0);
   }
-  irq_raise(table->irq + AVR_INT_IRQ_RUNNING, table->running_ptr > 0 ? table->running[table->running_ptr - 1]->vector : 0);
-  irq_raise(table->irq + AVR_INT_IRQ_PENDING, (uint32_t)pending_count(avr));
+  fast_irq_raise(table->irq + AVR_INT_IRQ_RUNNING, table->running_ptr > 0 ? table->running[table->running_ptr - 1]->vector : 0);
+  fast_irq_raise(table->irq + AVR_INT_IRQ_PENDING, (uint32_t)fast_pending_any(avr));
 }
 
 /* ---- the interpreter ----
  * The PC and the cycle counter live in locals while the core runs plain instructions, and the
  * batch's remaining cycles as the cycle it ends at (end = cycle + run_cycle_count): an
- * instruction continues the batch when the cycle after it is below end, which is simavr's
- * test (run_cycle_count > the instruction's cycles). SYNC() writes them back before anything
- * outside the core runs (an I/O handler, simavr's interrupt and watchdog code, a log), which
- * may read them and change the remaining cycles (a cycle timer registered), the run state or
- * the interrupt state; RESYNC() reads them back and sets limit to 0, so that the instruction
- * ends at check:, where the run and interrupt state are tested as simavr's loop tests them
- * after every instruction. A plain instruction can change neither. */
+ * instruction continues the batch when the cycle after it is below limit, which is end
+ * (simavr's test: run_cycle_count > the instruction's cycles) or 0. SYNC() writes them back
+ * before anything outside the core runs (an I/O handler, simavr's interrupt and watchdog code,
+ * a log), which may read them and change the remaining cycles (a cycle timer registered), the
+ * run state or the interrupt state; RESYNC() reads them back and sets limit to 0 (STOP()), so
+ * that the instruction ends at check:, where the run and interrupt state are tested as simavr's
+ * loop tests them after every instruction. A plain instruction can change neither.
+ *
+ * Each handler ends by dispatching the next instruction itself (NEXT): its cycles and size are
+ * constants there, and pc holds the instruction's own address until then (SYNC hands simavr
+ * that address, as avr_run_one does). simavr checks the PC against the flash's end before every
+ * instruction; here only where it can leave the flash: at a jump, call or return to a computed
+ * address (NEXT_FAR), and at the entries near the flash's end or with a branch target outside
+ * it, which decode() gives the handler near_end: they end at check:, which tests the PC. */
 
 static uint32_t run(fast_core_t *core, avr_t *avr, avr_cycle_count_t until, fc_handlers_t *table) {
-  static const void *const handlers[OP_COUNT] = {
+  static const void *const handlers[HANDLERS] = {
       [OP_NOP] = &&op_nop, [OP_INVALID] = &&op_invalid,
       [OP_ADD] = &&op_add, [OP_ADC] = &&op_adc, [OP_SUB] = &&op_sub, [OP_SBC] = &&op_sbc,
       [OP_CP] = &&op_cp, [OP_CPC] = &&op_cpc, [OP_CPSE] = &&op_cpse,
@@ -635,6 +556,7 @@ static uint32_t run(fast_core_t *core, avr_t *avr, avr_cycle_count_t until, fc_h
       [OP_IJMP] = &&op_ijmp, [OP_ICALL] = &&op_icall, [OP_EIJMP] = &&op_eijmp,
       [OP_EICALL] = &&op_eijmp, [OP_RET] = &&op_ret, [OP_RETI] = &&op_reti,
       [OP_SLEEP] = &&op_sleep, [OP_BREAK] = &&op_break, [OP_WDR] = &&op_wdr, [OP_SPM] = &&op_spm,
+      [HANDLER_NEAR_END] = &&near_end,
   };
   if (table) {
     *table = handlers;
@@ -645,16 +567,51 @@ static uint32_t run(fast_core_t *core, avr_t *avr, avr_cycle_count_t until, fc_h
   const uint8_t *const flash = avr->flash;
   fc_insn_t *const code = core->code;
   const uint16_t ramend = avr->ramend;
+  const uint32_t flashend = avr->flashend;
   uint32_t pc = avr->pc;
   avr_cycle_count_t cycle = avr->cycle;
   avr_cycle_count_t end = cycle + avr->run_cycle_count;
   avr_cycle_count_t limit = 0; /* the first instruction ends at check:, as simavr's */
-  uint32_t new_pc;
-  unsigned cycles;
+  unsigned cycles;             /* the last instruction's, on the way to check: */
   const fc_insn_t *e;
 
+#define STOP() (limit = 0)
 #define SYNC() (avr->pc = pc, avr->cycle = cycle, avr->run_cycle_count = end - cycle)
 #define RESYNC() (cycle = avr->cycle, end = cycle + avr->run_cycle_count, limit = 0)
+  /* Fetches the entry at pc (code[pc / 2]), decoded again when the flash word changed, and
+   * runs its handler. */
+#define DISPATCH()                                                                                                     \
+  do {                                                                                                                 \
+    e = (const fc_insn_t *)((const char *)code + (size_t)pc * (sizeof(fc_insn_t) / 2));                              \
+    uint16_t w_;                                                                                                       \
+    memcpy(&w_, flash + pc, sizeof(w_));                                                                               \
+    if (__builtin_expect(e->word != le16toh(w_), 0)) {                                                                 \
+      goto redecode;                                                                                                   \
+    }                                                                                                                  \
+    goto *e->handler;                                                                                                  \
+  } while (0)
+  /* The instruction took n cycles; the next one is `size` bytes on. */
+#define NEXT(n, size)                                                                                                  \
+  do {                                                                                                                 \
+    cycle += (n);                                                                                                      \
+    pc += (size);                                                                                                      \
+    if (__builtin_expect(cycle < limit, 1)) {                                                                          \
+      DISPATCH();                                                                                                      \
+    }                                                                                                                  \
+    cycles = (n);                                                                                                      \
+    goto check;                                                                                                        \
+  } while (0)
+  /* The instruction took n cycles; the next one is at target, which may lie past the flash. */
+#define NEXT_FAR(n, target)                                                                                            \
+  do {                                                                                                                 \
+    cycle += (n);                                                                                                      \
+    pc = (target);                                                                                                     \
+    if (__builtin_expect(cycle < limit && pc < flashend, 1)) {                                                         \
+      DISPATCH();                                                                                                      \
+    }                                                                                                                  \
+    cycles = (n);                                                                                                      \
+    goto check;                                                                                                        \
+  } while (0)
 #define STORE(addr_expr, v_expr)                                                                                       \
   do {                                                                                                                 \
     const uint16_t a_ = (uint16_t)(addr_expr);                                                                         \
@@ -663,7 +620,7 @@ static uint32_t run(fast_core_t *core, avr_t *avr, avr_cycle_count_t until, fc_h
       data[a_] = v_;                                                                                                   \
     } else if (a_ == R_SREG && sreg_write_is_plain(avr)) {                                                             \
       sreg_write(avr, v_);                                                                                             \
-      limit = 0; /* the interrupt state may change */                                                                  \
+      STOP(); /* the interrupt state may change */                                                                     \
     } else {                                                                                                           \
       SYNC();                                                                                                          \
       store_slow(avr, a_, v_);                                                                                         \
@@ -710,59 +667,58 @@ static uint32_t run(fast_core_t *core, avr_t *avr, avr_cycle_count_t until, fc_h
   } while (0)
 #define POINTER(reg) ((uint16_t)(data[reg] | (data[(reg) + 1] << 8)))
 
-next:
-  if (__builtin_expect(pc >= avr->flashend, 0)) {
-    SYNC();
-    avr_sadly_crashed(avr, 0); /* as simavr's core: no instruction there */
-    return 0;
+  if (__builtin_expect(pc >= flashend, 0)) {
+    goto off_the_flash;
   }
-  e = (const fc_insn_t *)((const char *)code + (size_t)pc * (sizeof(fc_insn_t) / 2)); /* code[pc / 2] */
-  {
-    uint16_t w;
-    memcpy(&w, flash + pc, sizeof(w));
-    w = le16toh(w);
-    if (__builtin_expect(e->word != w, 0)) {
-      decode(avr, &code[pc / 2], pc, w, handlers); /* the flash changed under the entry */
-    }
-  }
-  new_pc = pc + 2;
-  cycles = 1;
+  DISPATCH();
+
+redecode: /* the flash changed under the entry */
+  decode(avr, &code[pc / 2], pc, flash_word(flash, pc), handlers);
   goto *e->handler;
+near_end: /* the next PC may lie past the flash: check: tests it */
+  STOP();
+  goto *handlers[e->op];
 
 op_nop:
-  goto done;
+  NEXT(1, 2);
 op_invalid:
   SYNC();
   invalid_opcode(avr, pc);
   RESYNC();
-  goto done;
+  NEXT(1, 2);
   /* ADD/ADC, SUB/SBC/CP/CPC and their immediate forms, AND/OR/EOR and theirs: rr is the
    * source register's byte or the immediate; with_carry adds or subtracts C (and keeps Z set
    * only while the result is zero, for SBC/CPC/SBCI); store: the result goes to Rd. */
 #define ADD_FORM(rr_value, with_carry)                                                                                 \
   {                                                                                                                    \
-    const uint8_t vd = data[e->d], vr = (rr_value);                                                                    \
-    const uint8_t res = (uint8_t)(vd + vr + ((with_carry) ? s[S_C] : 0));                                              \
+    uint32_t index;                                                                                                    \
+    const uint8_t res = (with_carry) ? fc_add8(data[e->d], (rr_value), s[S_C], &index)                                \
+                                     : fc_add8_nc(data[e->d], (rr_value), &index);                                     \
     data[e->d] = res;                                                                                                  \
-    flags_add(s, res, vd, vr);                                                                                         \
-    goto done;                                                                                                         \
+    fc_sreg_merge(s, FC_ARITH, fc_flags.arith[index]);                                                                 \
+    NEXT(1, 2);                                                                                                        \
   }
 #define SUB_FORM(rr_value, with_carry, store)                                                                          \
   {                                                                                                                    \
-    const uint8_t vd = data[e->d], vr = (rr_value);                                                                    \
-    const uint8_t res = (uint8_t)(vd - vr - ((with_carry) ? s[S_C] : 0));                                              \
+    uint32_t index;                                                                                                    \
+    const uint8_t res = (with_carry) ? fc_sub8(data[e->d], (rr_value), s[S_C], &index)                                \
+                                     : fc_sub8_nc(data[e->d], (rr_value), &index);                                     \
     if (store) {                                                                                                       \
       data[e->d] = res;                                                                                                \
     }                                                                                                                  \
-    flags_sub(s, res, vd, vr, (with_carry) ? (res ? 0 : s[S_Z]) : res == 0);                                           \
-    goto done;                                                                                                         \
+    if (with_carry) {                                                                                                  \
+      fc_sreg_merge_keep_zero(s, fc_flags.arith[index]);                                                               \
+    } else {                                                                                                           \
+      fc_sreg_merge(s, FC_ARITH, fc_flags.arith[index]);                                                               \
+    }                                                                                                                  \
+    NEXT(1, 2);                                                                                                        \
   }
 #define LOGIC_FORM(operator, rr_value)                                                                                 \
   {                                                                                                                    \
     const uint8_t res = data[e->d] operator(rr_value);                                                                 \
     data[e->d] = res;                                                                                                  \
-    flags_logic(s, res);                                                                                               \
-    goto done;                                                                                                         \
+    fc_sreg_merge(s, FC_ZNVS, fc_flags.logic[res]);                                                                    \
+    NEXT(1, 2);                                                                                                        \
   }
 op_add:
   ADD_FORM(data[e->r], false)
@@ -780,7 +736,7 @@ op_cpse:
   if (data[e->d] == data[e->r]) {
     goto skip;
   }
-  goto done;
+  NEXT(1, 2);
 op_and:
   LOGIC_FORM(&, data[e->r])
 op_or:
@@ -789,12 +745,12 @@ op_eor:
   LOGIC_FORM(^, data[e->r])
 op_mov:
   data[e->d] = data[e->r];
-  goto done;
+  NEXT(1, 2);
 op_movw: {
   const uint8_t lo = data[e->r], hi = data[e->r + 1];
   data[e->d] = lo;
   data[e->d + 1] = hi;
-  goto done;
+  NEXT(1, 2);
 }
 op_mul: {
   const uint16_t res = (uint16_t)(data[e->d] * data[e->r]);
@@ -802,8 +758,7 @@ op_mul: {
   data[1] = (uint8_t)(res >> 8);
   s[S_Z] = res == 0;
   s[S_C] = (res >> 15) & 1;
-  cycles = 2;
-  goto done;
+  NEXT(2, 2);
 }
 op_muls: {
   const int16_t res = (int16_t)((int8_t)data[e->r] * (int8_t)data[e->d]);
@@ -811,8 +766,7 @@ op_muls: {
   data[1] = (uint8_t)((uint16_t)res >> 8);
   s[S_C] = ((uint16_t)res >> 15) & 1;
   s[S_Z] = res == 0;
-  cycles = 2;
-  goto done;
+  NEXT(2, 2);
 }
   /* The products as simavr 1.6 forms them: a 16-bit signed result, C from its bit 15 before
    * the fractional shift, Z after it. */
@@ -825,8 +779,7 @@ op_muls: {
     data[1] = (uint8_t)((uint16_t)res >> 8);                                                                           \
     s[S_C] = c;                                                                                                        \
     s[S_Z] = res == 0;                                                                                                 \
-    cycles = 2;                                                                                                        \
-    goto done;                                                                                                         \
+    NEXT(2, 2);                                                                                                        \
   }
 op_mulsu:
   MUL_FORM((uint8_t)data[e->r] * (int8_t)data[e->d], 0)
@@ -848,18 +801,16 @@ op_andi:
   LOGIC_FORM(&, e->x)
 op_ldi:
   data[e->d] = e->x;
-  goto done;
+  NEXT(1, 2);
 op_ldd: {
   uint8_t v;
   LOAD(v, POINTER(e->x) + e->r);
   data[e->d] = v;
-  cycles = 2;
-  goto done;
+  NEXT(2, 2);
 }
 op_std:
   STORE(POINTER(e->x) + e->r, data[e->d]);
-  cycles = 2;
-  goto done;
+  NEXT(2, 2);
 op_ld_inc: {
   const uint8_t reg = e->x, d = e->d;
   const uint16_t p = POINTER(reg);
@@ -868,8 +819,7 @@ op_ld_inc: {
   data[reg + 1] = (uint8_t)((p + 1) >> 8);
   data[reg] = (uint8_t)(p + 1);
   data[d] = v;
-  cycles = 2;
-  goto done;
+  NEXT(2, 2);
 }
 op_ld_dec: {
   const uint8_t reg = e->x, d = e->d;
@@ -879,8 +829,7 @@ op_ld_dec: {
   data[reg + 1] = (uint8_t)(p >> 8);
   data[reg] = (uint8_t)p;
   data[d] = v;
-  cycles = 2;
-  goto done;
+  NEXT(2, 2);
 }
 op_st_inc: {
   const uint8_t reg = e->x, v = data[e->d];
@@ -888,8 +837,7 @@ op_st_inc: {
   STORE(p, v);
   data[reg + 1] = (uint8_t)((p + 1) >> 8);
   data[reg] = (uint8_t)(p + 1);
-  cycles = 2;
-  goto done;
+  NEXT(2, 2);
 }
 op_st_dec: {
   const uint8_t reg = e->x, v = data[e->d];
@@ -897,40 +845,32 @@ op_st_dec: {
   STORE(p, v);
   data[reg + 1] = (uint8_t)(p >> 8);
   data[reg] = (uint8_t)p;
-  cycles = 2;
-  goto done;
+  NEXT(2, 2);
 }
 op_lds: {
   const uint8_t d = e->d;
   uint8_t v;
-  LOAD(v, flash_word(avr, new_pc));
+  LOAD(v, flash_word(flash, pc + 2));
   data[d] = v;
-  new_pc += 2;
-  cycles = 2;
-  goto done;
+  NEXT(2, 4);
 }
 op_sts: {
   const uint8_t v = data[e->d];
-  STORE(flash_word(avr, new_pc), v);
-  new_pc += 2;
-  cycles = 2;
-  goto done;
+  STORE(flash_word(flash, pc + 2), v);
+  NEXT(2, 4);
 }
 op_lpm_r0:
   data[0] = flash[POINTER(R_ZL)];
-  cycles = 3;
-  goto done;
+  NEXT(3, 2);
 op_lpm:
   data[e->d] = flash[POINTER(R_ZL)];
-  cycles = 3;
-  goto done;
+  NEXT(3, 2);
 op_lpm_inc: {
   const uint16_t z = POINTER(R_ZL);
   data[e->d] = flash[z];
   data[R_ZH] = (uint8_t)((z + 1) >> 8);
   data[R_ZL] = (uint8_t)(z + 1);
-  cycles = 3;
-  goto done;
+  NEXT(3, 2);
 }
   /* ELPM on a part without RAMPZ: simavr logs an invalid opcode and reads data[0] as RAMPZ. */
 op_elpm_r0:
@@ -940,8 +880,7 @@ op_elpm_r0:
     RESYNC();
   }
   data[0] = flash[data[R_ZL] | (data[R_ZH] << 8) | (data[avr->rampz] << 16)];
-  cycles = 3;
-  goto done;
+  NEXT(3, 2);
 op_elpm: {
   if (!avr->rampz) {
     SYNC();
@@ -956,16 +895,14 @@ op_elpm: {
     data[R_ZH] = (uint8_t)(z >> 8);
     data[R_ZL] = (uint8_t)z;
   }
-  cycles = 3;
-  goto done;
+  NEXT(3, 2);
 }
 op_push: {
   const uint8_t v = data[e->d];
   const uint16_t sp = SP();
   STORE(sp, v);
   SET_SP(sp - 1);
-  cycles = 2;
-  goto done;
+  NEXT(2, 2);
 }
 op_pop: {
   const uint8_t d = e->d;
@@ -974,65 +911,60 @@ op_pop: {
   LOAD(v, sp);
   SET_SP(sp);
   data[d] = v;
-  cycles = 2;
-  goto done;
+  NEXT(2, 2);
 }
 op_com: {
   const uint8_t res = (uint8_t)(0xff - data[e->d]);
   data[e->d] = res;
-  flags_logic(s, res);
-  s[S_C] = 1;
-  goto done;
+  fc_sreg_merge(s, FC_CZNVS, fc_flags.logic[res] | 1u); /* C = 1 */
+  NEXT(1, 2);
 }
 op_neg: {
   const uint8_t vd = data[e->d];
   const uint8_t res = (uint8_t)(0 - vd);
   data[e->d] = res;
   s[S_H] = ((res >> 3) | (vd >> 3)) & 1;
-  s[S_V] = res == 0x80;
   s[S_C] = res != 0;
-  flags_zns(s, res);
-  goto done;
+  fc_sreg_merge(s, FC_ZNVS, fc_flags.inc[res]); /* V: res is 0x80, as after INC */
+  NEXT(1, 2);
 }
 op_swap: {
   const uint8_t vd = data[e->d];
   data[e->d] = (uint8_t)((vd >> 4) | (vd << 4));
-  goto done;
+  NEXT(1, 2);
 }
 op_inc: {
   const uint8_t res = (uint8_t)(data[e->d] + 1);
   data[e->d] = res;
-  s[S_V] = res == 0x80;
-  flags_zns(s, res);
-  goto done;
+  fc_sreg_merge(s, FC_ZNVS, fc_flags.inc[res]);
+  NEXT(1, 2);
 }
 op_dec: {
   const uint8_t res = (uint8_t)(data[e->d] - 1);
   data[e->d] = res;
-  s[S_V] = res == 0x7f;
-  flags_zns(s, res);
-  goto done;
+  fc_sreg_merge(s, FC_ZNVS, fc_flags.dec[res]);
+  NEXT(1, 2);
 }
 op_asr: {
   const uint8_t vd = data[e->d];
   const uint8_t res = (uint8_t)((vd >> 1) | (vd & 0x80));
   data[e->d] = res;
-  flags_shift_right(s, res, vd);
-  goto done;
+  fc_sreg_merge(s, FC_CZNVS, fc_flags.shift[(vd & 1u) << 8 | res]);
+  NEXT(1, 2);
 }
 op_lsr: {
   const uint8_t vd = data[e->d];
   const uint8_t res = vd >> 1;
   data[e->d] = res;
-  flags_shift_right(s, res, vd); /* N = 0 */
-  goto done;
+  fc_sreg_merge(s, FC_CZNVS, fc_flags.shift[(vd & 1u) << 8 | res]); /* N = 0 */
+  NEXT(1, 2);
 }
 op_ror: {
   const uint8_t vd = data[e->d];
   const uint8_t res = (uint8_t)((s[S_C] ? 0x80 : 0) | vd >> 1);
   data[e->d] = res;
-  flags_shift_right(s, res, vd);
-  goto done;
+  fc_sreg_merge(s, FC_CZNVS, fc_flags.shift[(vd & 1u) << 8 | res]);
+  NEXT(1, 2);
 }
 op_adiw: {
   const uint8_t p = e->d;
@@ -1041,8 +973,7 @@ op_adiw: {
   data[p + 1] = (uint8_t)(res >> 8);
   data[p] = (uint8_t)res;
   flags_word(s, res, ((~vp & res) >> 15) & 1, ((~res & vp) >> 15) & 1);
-  cycles = 2;
-  goto done;
+  NEXT(2, 2);
 }
 op_sbiw: {
   const uint8_t p = e->d;
@@ -1051,54 +982,51 @@ op_sbiw: {
   data[p + 1] = (uint8_t)(res >> 8);
   data[p] = (uint8_t)res;
   flags_word(s, res, ((vp & ~res) >> 15) & 1, ((res & ~vp) >> 15) & 1);
-  cycles = 2;
-  goto done;
+  NEXT(2, 2);
 }
 op_bset:
   if (e->r == S_I) {
-    limit = 0; /* the interrupt state may change */
+    STOP(); /* the interrupt state may change */
   }
   sreg_set(avr, e->r, 1);
-  goto done;
+  NEXT(1, 2);
 op_bclr:
   if (e->r == S_I) {
-    limit = 0;
+    STOP();
   }
   sreg_set(avr, e->r, 0);
-  goto done;
+  NEXT(1, 2);
 op_bld: {
   const uint8_t vd = data[e->d];
   data[e->d] = (uint8_t)((vd & ~e->x) | (s[S_T] ? e->x : 0));
-  goto done;
+  NEXT(1, 2);
 }
 op_bst:
   s[S_T] = (data[e->d] >> e->r) & 1;
-  goto done;
+  NEXT(1, 2);
 op_in: {
   const uint8_t d = e->d;
   uint8_t v;
   LOAD(v, e->x);
   data[d] = v;
-  goto done;
+  NEXT(1, 2);
 }
 op_out:
   STORE(e->x, data[e->d]);
-  goto done;
+  NEXT(1, 2);
 op_cbi: {
   const uint8_t a = e->d, mask = e->x;
   uint8_t v;
   LOAD(v, a);
   STORE(a, v & (uint8_t)~mask);
-  cycles = 2;
-  goto done;
+  NEXT(2, 2);
 }
 op_sbi: {
   const uint8_t a = e->d, mask = e->x;
   uint8_t v;
   LOAD(v, a);
   STORE(a, v | mask);
-  cycles = 2;
-  goto done;
+  NEXT(2, 2);
 }
 op_sbic: {
   const uint8_t mask = e->x;
@@ -1107,7 +1035,7 @@ op_sbic: {
   if (!(v & mask)) {
     goto skip;
   }
-  goto done;
+  NEXT(1, 2);
 }
 op_sbis: {
   const uint8_t mask = e->x;
@@ -1116,139 +1044,112 @@ op_sbis: {
   if (v & mask) {
     goto skip;
   }
-  goto done;
+  NEXT(1, 2);
 }
 op_sbrc:
   if (!(data[e->d] & e->x)) {
     goto skip;
   }
-  goto done;
+  NEXT(1, 2);
 op_sbrs:
   if (data[e->d] & e->x) {
     goto skip;
   }
-  goto done;
+  NEXT(1, 2);
 op_brbs:
   if (s[e->r]) {
-    new_pc += (uint32_t)(int32_t)(int16_t)e->k;
-    cycles = 2;
+    NEXT(2, (uint32_t)(int32_t)(int16_t)e->k);
   }
-  goto done;
+  NEXT(1, 2);
 op_brbc:
   if (!s[e->r]) {
-    new_pc += (uint32_t)(int32_t)(int16_t)e->k;
-    cycles = 2;
+    NEXT(2, (uint32_t)(int32_t)(int16_t)e->k);
   }
-  goto done;
+  NEXT(1, 2);
 op_rjmp:
-  new_pc = e->k;
-  cycles = 2;
-  goto done;
-op_rcall: {
-  const uint32_t target = e->k;
-  PUSH_PC(new_pc);
-  new_pc = target;
-  cycles = 3;
-  goto done;
-}
+  pc = e->k;
+  NEXT(2, 0);
+op_rcall:
+  PUSH_PC(pc + 2);
+  pc = e->k;
+  NEXT(3, 0);
 op_jmp:
-  new_pc = (((uint32_t)((e->word & 0x01f0) >> 3 | (e->word & 1)) << 16) | flash_word(avr, new_pc)) << 1;
-  cycles = 3;
-  goto done;
+  NEXT_FAR(3, (((uint32_t)((e->word & 0x01f0) >> 3 | (e->word & 1)) << 16) | flash_word(flash, pc + 2)) << 1);
 op_call: {
-  const uint32_t target = (((uint32_t)((e->word & 0x01f0) >> 3 | (e->word & 1)) << 16) | flash_word(avr, new_pc))
+  const uint32_t target = (((uint32_t)((e->word & 0x01f0) >> 3 | (e->word & 1)) << 16) | flash_word(flash, pc + 2))
                           << 1;
-  PUSH_PC(new_pc + 2);
-  new_pc = target;
-  cycles = 4;
-  goto done;
+  PUSH_PC(pc + 4);
+  NEXT_FAR(4, target);
 }
 op_ijmp:
-  new_pc = (uint32_t)POINTER(R_ZL) << 1;
-  cycles = 2;
-  goto done;
+  NEXT_FAR(2, (uint32_t)POINTER(R_ZL) << 1);
 op_icall: {
   const uint32_t target = (uint32_t)POINTER(R_ZL) << 1;
-  PUSH_PC(new_pc);
-  new_pc = target;
-  cycles = 3;
-  goto done;
+  PUSH_PC(pc + 2);
+  NEXT_FAR(3, target);
 }
 op_eijmp: { /* EIJMP and EICALL */
-  const bool call = e->op == OP_EICALL;
   if (!avr->eind) {
     SYNC();
     invalid_opcode(avr, pc);
     RESYNC();
   }
-  const uint32_t z = (uint32_t)POINTER(R_ZL) | ((uint32_t)data[avr->eind] << 16);
-  cycles = 2;
-  if (call) {
-    PUSH_PC(new_pc);
-    cycles = 3;
+  const uint32_t target = ((uint32_t)POINTER(R_ZL) | ((uint32_t)data[avr->eind] << 16)) << 1;
+  if (e->op == OP_EICALL) {
+    PUSH_PC(pc + 2);
+    NEXT_FAR(3, target);
   }
-  new_pc = z << 1;
-  goto done;
+  NEXT_FAR(2, target);
 }
-op_reti:
+op_reti: {
   SYNC();
   sreg_set(avr, S_I, 1);
   interrupt_return(avr);
   RESYNC();
-  POP_PC(new_pc);
-  cycles = 4;
-  goto done;
-op_ret:
-  POP_PC(new_pc);
-  cycles = 4;
-  goto done;
+  uint32_t target;
+  POP_PC(target);
+  NEXT_FAR(4, target);
+}
+op_ret: {
+  uint32_t target;
+  POP_PC(target);
+  NEXT_FAR(4, target);
+}
 op_sleep:
   SYNC();
   if (!avr_has_pending_interrupts(avr) || !s[S_I]) {
     avr->state = cpu_Sleeping;
   }
   RESYNC();
-  goto done;
+  NEXT(1, 2);
 op_break:
   if (avr->gdb) { /* not reached: a core with gdb runs simavr's interpreter */
-    limit = 0;
+    STOP();
     avr->state = cpu_StepDone;
-    new_pc = pc;
-    cycles = 0;
+    NEXT(0, 0);
   }
-  goto done;
+  NEXT(1, 2);
 op_wdr:
   SYNC();
   avr_ioctl(avr, AVR_IOCTL_WATCHDOG_RESET, 0);
   RESYNC();
-  goto done;
+  NEXT(1, 2);
 op_spm:
   SYNC();
   avr_ioctl(avr, AVR_IOCTL_FLASH_SPM, 0);
   RESYNC();
-  goto done;
+  NEXT(1, 2);
 
-skip:
-  if (next_is_two_words(avr, new_pc)) {
-    new_pc += 4;
-    cycles += 2;
-  } else {
-    new_pc += 2;
-    cycles += 1;
+skip: /* CPSE, SBRC, SBRS, SBIC, SBIS: the next instruction, of one word or two, is skipped */
+  if (next_is_two_words(flash, pc + 2)) {
+    NEXT(3, 6);
   }
-  goto done;
+  NEXT(2, 4);
 
-done:
-  cycle += cycles;
-  if (__builtin_expect(cycle < limit, 1)) {
-    pc = new_pc;
-    goto next;
-  }
-  /* check: the batch's end, or something outside the core ran (limit 0) */
+check: /* the batch's end, something outside the core ran (limit 0), or the PC may be off the flash */
   if (limit == 0 && avr->state == cpu_Running && avr->interrupt_state == 0 && cycle < end) {
     limit = end;
-    pc = new_pc;
-    goto next;
+    goto go_on;
   }
   /* The instructions after SEI, RETI or an SREG write that sets I: simavr's step would end the
    * batch here, find no cycle timer due, count the interrupt delay down (its
@@ -1263,16 +1164,28 @@ done:
       }
       end = timer < until ? timer : until;
       limit = avr->interrupt_state == 0 ? end : 0;
-      pc = new_pc;
-      goto next;
+      goto go_on;
     }
   }
-  avr->pc = pc;
+  avr->pc = (uint32_t)(e - code) * 2; /* the last instruction's address */
   avr->cycle = cycle;
   avr->run_cycle_count = end - (cycle - cycles); /* not lowered by the last instruction, as simavr */
-  return new_pc;
+  return pc;
+go_on:
+  if (__builtin_expect(pc >= flashend, 0)) {
+    goto off_the_flash;
+  }
+  DISPATCH();
+off_the_flash:
+  SYNC();
+  avr_sadly_crashed(avr, 0); /* as simavr's core: no instruction there */
+  return 0;
+#undef STOP
 #undef SYNC
 #undef RESYNC
+#undef DISPATCH
+#undef NEXT
+#undef NEXT_FAR
 #undef STORE
 #undef LOAD
 #undef SP
@@ -1307,11 +1220,11 @@ fast_core_t *fast_core_new(const avr_t *avr) {
     free(core);
     return NULL;
   }
-  (void)pthread_once(&sreg_bytes_filled, fill_sreg_bytes);
+  fc_flags_init();
   fc_handlers_t handlers;
   (void)run(NULL, NULL, 0, &handlers);
   for (uint32_t i = 0; i < core->words; i++) {
-    decode(avr, &core->code[i], i * 2, flash_word(avr, i * 2), handlers);
+    decode(avr, &core->code[i], i * 2, flash_word(avr->flash, i * 2), handlers);
   }
   return core;
 }

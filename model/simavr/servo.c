@@ -80,6 +80,7 @@ servo_t *servo_create(const servo_config_t *config, bus_t *bus, char *err, size_
     servo_destroy(servo);
     return NULL;
   }
+  uart_link_use_fast_interrupts(&servo->board.link, servo->fast_core != NULL);
   if (!attach_timers(servo)) {
     snprintf(err, err_len, "MCU '%s': Timer0 is not where the emulator expects it", config->mcu);
     servo_destroy(servo);

@@ -23,6 +23,7 @@
 #include "bus.h"
 #include "eeprom_store.h"
 #include "plant.h"
+#include "plant_joint.h"
 #include "quiet_timer.h"
 #include "sim_time.h"
 
@@ -101,6 +102,10 @@ typedef struct servo {
   bool has_plant;
   ax12_plant_t plant;
   sim_cycles_t plant_at; /* simulated time the plant has reached */
+  /* The output is a robot's joint (world_robot.h): the plant steps its electrics only and sums
+   * the drive the robot's physics takes at its next step. */
+  bool plant_on_joint;
+  ax12_joint_drive_t joint_drive;
   /* Running the core (servo_run.c). Simulated cycles the MCU has spent asleep (SLEEP until an
    * interrupt wakes it): the sum of the jumps servo_run_until() makes a sleeping core's clock
    * take. Never reset (an MCU reset keeps it); awake share over an interval

@@ -25,7 +25,12 @@ void servo_step_plant(servo_t *servo, sim_cycles_t now, bool force) {
   if (!servo->has_plant || now <= servo->plant_at || (!force && now - servo->plant_at < SERVO_PLANT_STEP)) {
     return;
   }
-  ax12_plant_step(&servo->plant, board_pwm_duty(&servo->board), (double)(now - servo->plant_at) / SIM_CPU_HZ);
+  const double dt_s = (double)(now - servo->plant_at) / SIM_CPU_HZ;
+  if (servo->plant_on_joint) {
+    ax12_plant_joint_step(&servo->plant, board_pwm_duty(&servo->board), dt_s, &servo->joint_drive);
+  } else {
+    ax12_plant_step(&servo->plant, board_pwm_duty(&servo->board), dt_s);
+  }
   servo->plant_at = now;
   servo_show_plant(servo);
 }

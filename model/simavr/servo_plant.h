@@ -19,7 +19,9 @@
 void servo_attach_plant(servo_t *servo, const ax12_plant_t *plant);
 
 /* Steps the plant to now if it lags by SERVO_PLANT_STEP or more (force: whatever the lag),
- * with the H-bridge duty of the board, and feeds its readings to the board. */
+ * with the H-bridge duty of the board, and feeds its readings to the board. A plant whose
+ * output is a robot's joint (servo_t.plant_on_joint) steps its electrics only
+ * (ax12_plant_joint_step): the robot's physics moves the shaft. */
 void servo_step_plant(servo_t *servo, sim_cycles_t now, bool force);
 
 /* Shows the plant's readings on the board (after changing the plant's state directly). */

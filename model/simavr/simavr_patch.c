@@ -259,6 +259,39 @@ void simavr_gdb_close(avr_t *avr) {
   }
 }
 
+/* simavr 1.6's stub answers gdb's detach packet ("D", or "D;pid") as an unknown one, so gdb's
+ * `detach` fails ("Remote doesn't know how to detach"). When the next packet waiting on the
+ * connection is a detach, it is served here: acknowledged, answered OK, and the connection
+ * ended as the stub ends one gdb closes (breakpoints and watchpoints cleared, the core let
+ * run). True when it was one. */
+static bool served_detach(avr_t *avr, gdb_stub_t *g) {
+  char peeked[64];
+  const ssize_t n = recv(g->s, peeked, sizeof(peeked) - 1u, MSG_PEEK | MSG_DONTWAIT);
+  if (n <= 0) {
+    return false;
+  }
+  peeked[n] = '\0';
+  const char *packet = peeked + strspn(peeked, "+-");
+  const char *end = strchr(packet, '#');
+  if (strncmp(packet, "$D", 2) != 0 || !(packet[2] == '#' || packet[2] == ';') || !end || end[1] == '\0' ||
+      end[2] == '\0') {
+    return false;
+  }
+  const size_t length = (size_t)(end + 3 - peeked);
+  char taken[sizeof(peeked)];
+  if (recv(g->s, taken, length, MSG_DONTWAIT) != (ssize_t)length) {
+    return false;
+  }
+  static const char reply[] = "+$OK#9a";
+  (void)send(g->s, reply, sizeof(reply) - 1u, MSG_NOSIGNAL);
+  close(g->s);
+  g->s = -1;
+  g->breakpoints.len = 0;
+  g->watchpoints.len = 0;
+  avr->state = cpu_Running;
+  return true;
+}
+
 bool simavr_gdb_serve(avr_t *avr, unsigned wait_us) {
   gdb_stub_t *g = stub_of(avr);
   if (!g) {
@@ -272,6 +305,9 @@ bool simavr_gdb_serve(avr_t *avr, unsigned wait_us) {
     FD_SET(fd, &read_set);
     struct timeval timeout = {.tv_sec = wait_us / 1000000u, .tv_usec = wait_us % 1000000u};
     due = select(fd + 1, &read_set, NULL, NULL, &timeout) > 0;
+    if (due && g->s != -1 && served_detach(avr, g)) {
+      return true;
+    }
   }
   if (due) {
     (void)with_stdout_on(STDERR_FILENO, gdb_process, avr, 0);

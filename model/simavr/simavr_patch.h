@@ -98,8 +98,9 @@ void simavr_interrupts_make_room(struct avr_t *avr);
  * list are private to sim_gdb.c, so the world's loop reads them here (the struct's 1.6
  * layout, checked after init). Also: the stub listens on every interface (here: replaced
  * by a socket on 127.0.0.1 only), prints on stdout (here: its calls run with stdout sent to
- * stderr, since the emulator's stdout carries only its ready line) and installs its own
- * run and sleep callbacks (here: simavr_install_run_loop's are put back). */
+ * stderr, since the emulator's stdout carries only its ready line), installs its own
+ * run and sleep callbacks (here: simavr_install_run_loop's are put back) and does not know
+ * gdb's detach packet (here: answered, the connection then ended as when gdb closes it). */
 
 /* Opens the stub on 127.0.0.1:port. False with err set (port in use...). */
 bool simavr_gdb_open(struct avr_t *avr, unsigned port, char *err, size_t err_len);
@@ -107,8 +108,8 @@ bool simavr_gdb_open(struct avr_t *avr, unsigned port, char *err, size_t err_len
 /* Closes the stub (and a connection); the core's state is left as it is. */
 void simavr_gdb_close(struct avr_t *avr);
 
-/* Waits up to wait_us for gdb (a connection, a request, Ctrl-C) and serves what came, as
- * avr_gdb_processor does: a stop to report (cpu_StepDone) is sent first. Breakpoints are the
+/* Waits up to wait_us for gdb (a connection, a request, Ctrl-C, a detach) and serves what came,
+ * as avr_gdb_processor does: a stop to report (cpu_StepDone) is sent first. Breakpoints are the
  * caller's to find (simavr_gdb_breakpoint_at after each instruction, then
  * simavr_gdb_report_stop). Returns true when something was served. */
 bool simavr_gdb_serve(struct avr_t *avr, unsigned wait_us);

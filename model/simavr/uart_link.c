@@ -7,13 +7,9 @@
 #include <sim_avr.h>
 #include <sim_io.h>
 
-DEFINE_FIFO(uint16_t, uart_fifo);
+#include "fast_interrupts.h"
 
-/* avr_raise_interrupt with room in simavr's pending list (simavr_patch.h). */
-static void raise(avr_t *avr, avr_int_vector_t *vector) {
-  simavr_interrupts_make_room(avr);
-  avr_raise_interrupt(avr, vector);
-}
+DEFINE_FIFO(uint16_t, uart_fifo);
 
 static avr_uart_t *find_uart0(avr_t *avr) {
   for (avr_io_t *io = avr->io_port; io; io = io->next) {
@@ -45,10 +41,33 @@ static sim_cycles_t frame_cycles(const uart_link_t *link) {
   return (sim_cycles_t)(uart_link_cycles_per_bit(link) * BUS_FRAME_BITS_8N1);
 }
 
+/* The USART's interrupts: simavr's calls, or the same without the calls nobody needs
+ * (fast_interrupts.h) when the servo runs the fast core. */
+static void raise_interrupt(const uart_link_t *link, avr_int_vector_t *vector) {
+  simavr_interrupts_make_room(link->avr); /* room in simavr's pending list (simavr_patch.h) */
+  if (link->fast_interrupts) {
+    (void)fast_raise_interrupt(link->avr, vector);
+  } else {
+    (void)avr_raise_interrupt(link->avr, vector);
+  }
+}
+
+static void clear_bit(const uart_link_t *link, avr_regbit_t rb) {
+  if (link->fast_interrupts) {
+    fast_regbit_clear(link->avr, rb);
+  } else {
+    avr_regbit_clear(link->avr, rb);
+  }
+}
+
 /* simavr 1.6: UDRE and RXC are "sticky": avr_clear_interrupt leaves their flag set. */
-static void clear_flag(avr_t *avr, avr_int_vector_t *vector) {
-  avr_clear_interrupt(avr, vector);
-  avr_regbit_clear(avr, vector->raised);
+static void clear_flag(const uart_link_t *link, avr_int_vector_t *vector) {
+  if (link->fast_interrupts) {
+    fast_clear_interrupt(link->avr, vector);
+  } else {
+    avr_clear_interrupt(link->avr, vector);
+  }
+  clear_bit(link, vector->raised);
 }
 
 /* ---- transmitter ---- */
@@ -68,15 +87,16 @@ static void start_byte(uart_link_t *link, uint8_t value, sim_cycles_t at) {
 }
 
 static avr_cycle_count_t shift_done(avr_t *avr, avr_cycle_count_t when, void *param) {
+  (void)avr;
   uart_link_t *link = param;
   if (link->buffer_full) {
     link->buffer_full = false;
     start_byte(link, link->buffer, when);
-    raise(avr, &link->uart->udrc);
+    raise_interrupt(link, &link->uart->udrc);
     return link->shift_end;
   }
   link->shift_busy = false;
-  raise(avr, &link->uart->txc);
+  raise_interrupt(link, &link->uart->txc);
   return 0;
 }
 
@@ -90,11 +110,11 @@ static void udr_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) {
     start_byte(link, v, avr->cycle);
     avr_cycle_timer_register(avr, link->shift_end - avr->cycle, shift_done, link);
     /* The buffer moved to the shift register: empty again. */
-    raise(avr, &link->uart->udrc);
+    raise_interrupt(link, &link->uart->udrc);
   } else if (!link->buffer_full) {
     link->buffer = v;
     link->buffer_full = true;
-    clear_flag(avr, &link->uart->udrc);
+    clear_flag(link, &link->uart->udrc);
   } else {
     link->tx_overflow++;
   }
@@ -107,17 +127,17 @@ static void ucsrb_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) 
   /* simavr 1.6 raises UDRE when UDRIE is set and its own (unused) TX pump is idle, even with
    * a byte waiting in the buffer. */
   if (link->buffer_full) {
-    clear_flag(avr, &u->udrc);
+    clear_flag(link, &link->uart->udrc);
   }
   /* simavr 1.6 workaround: it marks an interrupt pending only when its flag rises while it is
    * enabled; on silicon RXC and TXC are levels, and enabling RXCIE or TXCIE with the flag set
    * interrupts at once (a received byte waiting when an application takes over the USART a
    * bootloader left receiving). */
   if (avr_regbit_get(avr, u->rxc.enable) && avr_regbit_get(avr, u->rxc.raised)) {
-    raise(avr, &u->rxc);
+    raise_interrupt(link, &u->rxc);
   }
   if (avr_regbit_get(avr, u->txc.enable) && avr_regbit_get(avr, u->txc.raised)) {
-    raise(avr, &u->txc);
+    raise_interrupt(link, &u->txc);
   }
 }
 
@@ -153,12 +173,12 @@ static uint8_t udr_read(avr_t *avr, avr_io_addr_t addr, void *param) {
     v = (uint8_t)uart_fifo_read(&u->input);
   }
   if (uart_fifo_isempty(&u->input)) {
-    clear_flag(avr, &u->rxc);
+    clear_flag(link, &u->rxc);
   } else {
-    raise(avr, &u->rxc);
+    raise_interrupt(link, &u->rxc);
   }
   if (!uart_fifo_isfull(&u->input)) {
-    avr_regbit_clear(avr, u->dor);
+    clear_bit(link, u->dor);
   }
   return v;
 }
@@ -204,7 +224,7 @@ static void receive(uart_link_t *link, const bus_rx_t *rx) {
   uart_fifo_write(&u->input, fifo_entry(rx));
   simavr_uart_rx_limiter_reset(u); /* simavr 1.6: else its limiter clears RXC early */
   link->rx_bytes++;
-  raise(avr, &u->rxc);
+  raise_interrupt(link, &u->rxc);
 }
 
 static avr_cycle_count_t rx_due(avr_t *avr, avr_cycle_count_t when, void *param) {
@@ -297,6 +317,8 @@ bool uart_link_attach(uart_link_t *link, avr_t *avr, bus_t *bus, const char *nam
   link->node = bus_add_node(bus, name, &ops);
   return link->node >= 0;
 }
+
+void uart_link_use_fast_interrupts(uart_link_t *link, bool fast) { link->fast_interrupts = fast; }
 
 void uart_link_set_driving(uart_link_t *link, bool driving) {
   if (link->driving == driving) {

@@ -48,6 +48,7 @@ typedef struct {
   struct avr_t *avr;
   struct avr_uart_t *uart;
   const uart_link_observer_t *observer; /* uart_link_observe(); NULL: nobody watches */
+  bool fast_interrupts; /* uart_link_use_fast_interrupts() */
   bus_t *bus;
   int node;
   uint16_t ubrr; /* latched at the UBRR0L write */
@@ -81,6 +82,11 @@ bool uart_link_attach(uart_link_t *link, struct avr_t *avr, bus_t *bus, const ch
 /* observer (NULL: none) watches the link's pins from now on; call between world steps. An
  * unobserved link pays one pointer test per byte it sends, none per byte it receives. */
 void uart_link_observe(uart_link_t *link, const uart_link_observer_t *observer);
+
+/* fast: the USART's interrupts are raised and cleared as fast_interrupts.h does it (the same
+ * state, fewer calls: for a servo that runs the fast core); else with simavr's calls (the
+ * default, and the reference of the differential test). */
+void uart_link_use_fast_interrupts(uart_link_t *link, bool fast);
 
 /* The direction pin changed at the avr's current cycle. */
 void uart_link_set_driving(uart_link_t *link, bool driving);

@@ -48,6 +48,7 @@ world_t *world_create(const char *elf_path, const char *mcu, eeprom_profile_t pr
   snprintf(world->mcu, sizeof(world->mcu), "%s", mcu);
   world->profile = profile;
   world->plant_due = SIM_CYCLES_NEVER;
+  world->physics_due = SIM_CYCLES_NEVER;
   bus_init(&world->bus);
   return world;
 }
@@ -201,6 +202,9 @@ static inline __attribute__((always_inline)) void step(world_t *world, sim_cycle
   if (world->plant_due > world->now && world->plant_due < horizon) {
     horizon = world->plant_due;
   }
+  if (world->physics_due < horizon) {
+    horizon = world->physics_due;
+  }
   if (debugged) {
     horizon = run_debugged(world, horizon);
   }
@@ -212,6 +216,9 @@ static inline __attribute__((always_inline)) void step(world_t *world, sim_cycle
     world->persist_due = world_poll_persist(world) > 0; /* a failed write is retried */
   }
   step_plants(world, horizon);
+  if (world->physics_step && horizon == world->physics_due) {
+    world->physics_due = world->physics_step(world, world->physics_ctx);
+  }
   if (world->after_step) {
     world->after_step(world, world->after_step_ctx);
   }

@@ -53,6 +53,13 @@ typedef struct world {
    * model: read board_pwm_duty(), step the plant, feed board_set_pot_deg() and friends). */
   void (*after_step)(struct world *world, void *ctx);
   void *after_step_ctx;
+  /* Optional: a model stepped at fixed simulated times, interleaved with the servos (a robot's
+   * rigid-body physics: world_robot.h). No step of the world passes physics_due; once the world
+   * reaches it (the plants stepped to it), physics_step runs and returns the next due time.
+   * SIM_CYCLES_NEVER (world_create): none. */
+  sim_cycles_t physics_due;
+  sim_cycles_t (*physics_step)(struct world *world, void *ctx);
+  void *physics_ctx;
   /* The servo opened to gdb (world_set_debugged), NULL when none. */
   servo_t *debugged;
 } world_t;

@@ -127,8 +127,8 @@ def test_image_up_to_the_record_accepted_one_byte_more_refused(tmp_path):
     fits = jmp_vectors() + b"\x00" * (0x7DFC - 104)
     image_module.load(write_hex(tmp_path / "fits.hex", fits)).check_target("atmega328p")
     too_large = image_module.load(write_hex(tmp_path / "big.hex", fits + b"\x00"))
-    with pytest.raises(ImageError, match=r"32253 B: larger than the atmega328p's application area less the "
-                                         r"record, 32252 B"):
+    with pytest.raises(ImageError, match=r"32253 B, more than the atmega328p's application area 0x0000-0x7DFF: "
+                                         r"the image 0x0000-0x7DFB \(32252 B at most\), its record 0x7DFC-0x7DFF"):
         too_large.check_target("atmega328p")
 
 

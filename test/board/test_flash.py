@@ -2,8 +2,10 @@
 """`scripts/ax12 flash` (scripts/ax12_flash.py) against a servo without a simulator
 (test/board/fake_boot_servo.py): the steps and what is written, the way into the bootloader
 from a running application, retries and giving up, other IDs' answers ignored, verify, and
-what it refuses (exit 2: bad files before anything is sent, a file for the other part or too
-large for the servo, bad arguments; exit 1: a servo that does not answer or cannot take it).
+what it refuses (exit 2: bad files, files too large for their part's application area (a
+merged HEX), all before the port is opened; a file for another part than the servo's, after
+which a servo this command asked in runs its application again; bad arguments; exit 1: a servo
+that does not answer or cannot take it, a port lost mid-update).
 The same command against the emulated servos: test_flash_emulated.py."""
 
 import os
@@ -27,6 +29,7 @@ from fake_boot_servo import BOOT, GO, INFO, PAGE, PING, READ, FakeBootServo  # n
 FIRMWARE_DIR = os.environ.get("AX12_FIRMWARE_DIR") or os.path.join(REPO, "build", "firmware")
 HEX_328P = os.path.join(FIRMWARE_DIR, "ax12-ax12a-atmega328p.hex")
 HEX_88 = os.path.join(FIRMWARE_DIR, "ax12-ax12-atmega88.hex")
+HEX_328P_MERGED = os.path.join(FIRMWARE_DIR, "ax12-ax12a-atmega328p-merged.hex")
 
 
 @pytest.fixture(autouse=True)
@@ -258,16 +261,118 @@ def test_an_image_for_the_other_part_is_refused_before_a_write(capsys):
     assert instructions(servo) == [INFO]
 
 
-def test_an_image_larger_than_the_servo_takes_is_refused_before_a_write(capsys, tmp_path):
+def test_an_image_larger_than_its_parts_application_area_is_refused_before_the_port_is_opened(capsys, tmp_path):
     image = IntelHex(HEX_328P)
     image[0x7DFC] = 0x00  # the record
     big = tmp_path / "big.hex"
     image.write_hex_file(str(big))
-    servo = FakeBootServo()
-    code, _ = flash(servo, hex_path=str(big))
+    servo = FakeBootServo(mode="app")
+    code, opened = flash(servo, hex_path=str(big))
     assert code == 2
-    assert "larger than the atmega328p's application area less the record, 32252 B" in capsys.readouterr().err
-    assert instructions(servo) == [INFO]
+    err = capsys.readouterr().err
+    assert "is 32253 B, more than the atmega328p's application area 0x0000-0x7DFF: the image 0x0000-0x7DFB" in err
+    assert opened == [] and servo.received == b""
+
+
+def test_a_merged_hex_is_refused_before_the_port_is_opened_naming_the_file_flash_takes(capsys):
+    servo = FakeBootServo(mode="app")
+    code, opened = flash(servo, hex_path=HEX_328P_MERGED)
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "reaches into the boot section" in err and "flash-isp" in err and "ax12-<profile>-<mcu>.hex" in err
+    assert opened == [] and servo.received == b""
+
+
+def running_application(mcu="atmega328p"):
+    """A servo of that part running a valid application."""
+    servo = FakeBootServo(mode="app", mcu=mcu)
+    app = bytes(range(256)) * 4
+    servo.flash[:len(app)] = app
+    servo.flash[-4:] = ax12_app_image.record(len(app), ax12_app_image.check_value(app))
+    assert servo._record_valid()
+    return servo
+
+
+def test_a_servo_refused_after_it_entered_its_bootloader_runs_its_application_again(capsys):
+    servo = running_application("atmega88")  # and the file is the ATmega328P's
+    code, _ = flash(servo)
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "built for the atmega328p, the servo is an atmega88" in err
+    sent = instructions(servo)
+    assert sent[:3] == [INFO, BOOT, INFO] and PAGE not in sent
+    assert sent[3] == GO, "GO right after the refusal"
+    assert servo.mode == "app", "the servo left its bootloader"
+    assert "nothing written; its application runs again" in err
+
+
+def test_the_application_area_has_one_wording_in_the_steps_and_the_refusal(capsys, tmp_path):
+    area = "application area 0x0000-0x7DFF: the image 0x0000-0x7DFB (32252 B at most), its record 0x7DFC-0x7DFF"
+    assert ax12_app_image.area_text("atmega328p") == area
+    code, _ = flash(FakeBootServo())
+    steps = capsys.readouterr().err
+    assert code == 0 and steps.count(area) == 1, steps
+    image = IntelHex(HEX_328P)
+    image[0x7DFC] = 0x00
+    big = tmp_path / "big.hex"
+    image.write_hex_file(str(big))
+    flash(FakeBootServo(), hex_path=str(big))
+    refusal = capsys.readouterr().err
+    assert refusal.count(area) == 1, refusal
+
+
+def test_an_unknown_part_after_entry_is_refused_and_the_application_started_again(capsys):
+    servo = running_application()
+    servo.signature = b"\x1e\x00\x00"
+    code, _ = flash(servo)
+    err = capsys.readouterr().err
+    assert code == 1
+    assert "signature 1E 00 00, no part this tool knows" in err
+    assert instructions(servo)[3] == GO and servo.mode == "app"
+
+
+def test_ctrl_c_after_entry_and_before_the_first_page_starts_the_application_again(capsys, monkeypatch):
+    def interrupted(*_):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(ax12_app_image, "mcu_of_signature", interrupted)
+    servo = running_application()
+    code, _ = flash(servo)
+    assert code == 1
+    assert servo.mode == "app" and PAGE not in instructions(servo)
+    assert "its application runs again" in capsys.readouterr().err
+
+
+class PortGoneAfterPages(FakeBootServo):
+    """The port goes away (the emulator killed, the adapter unplugged) after `pages` PAGEs:
+    pyserial raises SerialException from then on."""
+
+    def __init__(self, pages, **kwargs):
+        super().__init__(**kwargs)
+        self.pages_left = pages
+
+    def write(self, data):
+        import serial
+        if self.pages_left < 0:
+            raise serial.SerialException("write failed: [Errno 5] Input/output error")
+        if len(data) > 5 and data[4] == PAGE:
+            self.pages_left -= 1
+        return super().write(data)
+
+    def read(self, count):
+        import serial
+        if self.pages_left < 0:
+            raise serial.SerialException("device reports readiness to read but returned no data")
+        return super().read(count)
+
+
+def test_a_port_lost_mid_update_is_one_line_and_exit_1(capsys):
+    servo = PortGoneAfterPages(3)
+    code, _ = flash(servo)
+    err = capsys.readouterr().err
+    assert code == 1
+    lines = err.strip().splitlines()
+    assert lines[-1].startswith("ax12 flash: lost the port /dev/fake (") and "Traceback" not in err
+    assert "stays in its bootloader" in lines[-1]
 
 
 def bad_files(tmp_path):

@@ -15,6 +15,11 @@ ATmega328P, with the product's applications.
   or new application or as the bootloader, IDs 1 and 3 run, and a new update completes.
 - A HEX with a flipped data byte (its record checksum then wrong) or cut short: refused, and
   nothing reaches the bus.
+- A merged HEX (application and bootloader): refused (exit 2) before the servo is asked into
+  its bootloader; the other part's HEX: refused once the bootloader names the servo's part, and
+  GO sent; either way the servo then still answers DynamixelSDK's ping (a PING and a READ) as
+  its application.
+- The emulator killed in the middle of an update: one line, exit 1, no traceback.
 
 The emulator is started by test/sim/python/conftest.py's Emulator.
 """
@@ -39,7 +44,9 @@ os.environ.setdefault("AX12_EMU", os.path.join(BUILD, "model", "tools", "ax12-em
 os.environ.setdefault("AX12_FIRMWARE_DIR", FIRMWARE_DIR)
 sys.path.insert(0, os.path.join(REPO, "python"))
 sys.path.insert(0, os.path.join(REPO, "scripts"))
+sys.path.insert(0, os.path.join(REPO, "test", "support"))
 import ax12_build  # noqa: E402
+import doc_samples  # noqa: E402
 
 ax12_build.ensure(BUILD)
 
@@ -129,13 +136,14 @@ def serve(state_dir):
         emu.kill()
 
 
-def flash_command(device, mcu, profile, ident=2):
+def flash_command(device, mcu, profile, ident=2, path=None):
     return [FRONT_DOOR, "flash", "--build", BUILD, "--port", device, "--id", str(ident),
-            app_file(mcu, profile, "hex")]
+            path or app_file(mcu, profile, "hex")]
 
 
-def flash(device, mcu, profile, ident=2):
-    return subprocess.run(flash_command(device, mcu, profile, ident), capture_output=True, text=True, timeout=300)
+def flash(device, mcu, profile, ident=2, path=None):
+    return subprocess.run(flash_command(device, mcu, profile, ident, path), capture_output=True, text=True,
+                          timeout=300)
 
 
 def exchange(device, ident, instruction, params=(), timeout_s=0.5):
@@ -193,6 +201,8 @@ def test_update_over_the_bus_changes_one_servo_only(serve, state_dir, mcu):
         assert f"verified; the application runs: Model Number {model}, Firmware Version {version}" in run.stdout, \
             run.stdout
         assert f"bootloader 2 on an {mcu}" in run.stderr
+        if (mcu, profile) == ("atmega328p", "ax12a"):
+            doc_samples.check("flash-result", run.stdout)
         assert_runs(emu.device, 2, profile)
         assert read(emu.device, 2, KEPT_SETTING[0], 1) == [KEPT_SETTING[1]], "the EEPROM is not the bootloader's"
         for other in (1, 3):
@@ -276,3 +286,59 @@ def test_a_bad_file_sends_nothing(serve, state_dir, which):
     emu.stop()
     sent = [(row["sender"], row["code_name"]) for row in bus_rows(log) if row["sender"] == "client"]
     assert set(sent) <= {("client", "PING")}, f"only the fixture's PINGs reached the bus: {sent}"
+
+
+# Files `flash` refuses for a servo of the first part: a merged HEX (the bootloader in it), before
+# the port is opened; the other part's build, once the servo's bootloader has named its part.
+REFUSED_FILES = [("merged", "atmega88", os.path.join(FIRMWARE_DIR, "ax12-ax12a-atmega88-merged.hex")),
+                 ("other part", "atmega88", app_file("atmega328p", "ax12a", "hex"))]
+
+
+@pytest.mark.parametrize("which,mcu,path", [pytest.param(*case, marks=needs(case[1]).marks) for case in REFUSED_FILES])
+def test_a_refused_file_leaves_the_servo_answering_as_its_application(serve, state_dir, which, mcu, path):
+    from dynamixel_sdk import COMM_SUCCESS, PacketHandler, PortHandler
+    log = state_dir / "bus.csv"
+    emu = serve(mcu, "--log-bus", str(log))
+    run = flash(emu.device, mcu, None, path=path)
+    assert run.returncode == 2, run.stdout + run.stderr
+    assert "Traceback" not in run.stderr, run.stderr
+    port, handler = PortHandler(emu.device), PacketHandler(1.0)
+    assert port.openPort() and port.setBaudRate(1000000)
+    try:
+        for _ in range(3):  # a busy machine may time one out
+            model, result, error = handler.ping(port, 2)
+            if result == COMM_SUCCESS:
+                break
+    finally:
+        port.closePort()
+    assert (result, error, model) == (COMM_SUCCESS, 0, ITEM["MODEL_NUMBER"].default_ax12), "the SDK's ping of ID 2"
+    assert_runs(emu.device, 2, "ax12")
+    emu.stop()
+    sent = [int(row["raw"].split()[4], 16) for row in bus_rows(log) if row["sender"] == "client"
+            and row["kind"] == "instruction" and row["id"] == "2"]
+    if which == "merged":
+        assert len(run.stderr.strip().splitlines()) == 1, run.stderr
+        assert boot.BOOT not in sent, "the servo was never asked into its bootloader"
+    else:
+        assert "built for the atmega328p, the servo is an atmega88" in run.stderr
+        assert "nothing written; its application runs again" in run.stderr
+        assert boot.BOOT in sent and boot.GO in sent and boot.PAGE not in sent, sent
+
+
+@pytest.mark.parametrize("mcu", [needs("atmega328p")])
+def test_the_emulator_killed_mid_update_ends_the_command_in_one_line_and_exit_1(serve, mcu):
+    emu = serve(mcu)
+    proc = subprocess.Popen(flash_command(emu.device, mcu, "ax12a"), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    seen = []
+    for line in proc.stderr:  # not a terminal: one line when the writing starts
+        seen.append(line)
+        if "writing:" in line:
+            break
+    emu.kill(signal.SIGKILL)
+    out, rest = proc.communicate(timeout=60)
+    err = "".join(seen) + rest
+    assert proc.returncode == 1, out + err
+    assert "Traceback" not in err, err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith(f"ax12 flash: lost the port {emu.device} (") and "run the command again" in last, err

@@ -34,6 +34,9 @@ import ax12_table as T
 from ax12_servo_port import transact
 from conftest import BUILD, DEFECTS, R, TOOL, conform, failing, ran, records, run_report
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "support"))
+import doc_samples  # noqa: E402
+
 
 def hexes(text):
     return R.parse_hex(text)
@@ -86,6 +89,17 @@ def test_every_case_passes_against_the_matching_profile(serve, tmp_path, profile
                                               "mapping"}
     assert report["skipped_reasons"].get("mapping", 0) <= 1
     assert "result: PASS" in proc.stdout
+    if profile == "ax12":
+        # README.md's run is on its link, /tmp/ax12, and a state folder of its own.
+        shown = proc.stdout.replace(str(emu.path), "/tmp/ax12").replace(str(emu.control),
+                                                                         "/tmp/readme-state/ax12/control.sock")
+        doc_samples.check("conform-pass", shown, conform_sample_line)
+
+
+def conform_sample_line(line):
+    """A line of a conform run's output as compared with README.md's: the timing figures masked
+    (the count of replies follows the cases run again after a lost answer)."""
+    return re.sub(r"[-+]?\d+(\.\d+)?", "N", line) if line.startswith("timing:") else line
 
 
 def test_without_allow_eeprom_no_eeprom_case_runs_and_the_table_is_left_as_found(serve, tmp_path):
@@ -258,6 +272,8 @@ def test_a_broken_build_fails_exactly_the_cases_its_defect_touches(serve, tmp_pa
     assert expected
     assert failing(report) == expected, proc.stdout
     assert report["restored"]
+    if defect == "IGNORE_SRL":
+        doc_samples.check("conform-failures", proc.stdout)
 
 
 # --- Ctrl-C in an EEPROM case --------------------------------------------------------------------

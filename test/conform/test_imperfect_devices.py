@@ -20,13 +20,19 @@ item, `half-drop` drops a 1-byte WRITE into a 2-byte item; `plain` has none of t
 - A leaked value is named by address where it leaked, and again (with the case that left it)
   where a later case reads it.
 """
+import os
 import re
+import sys
 
 import pytest
 
 import ax12_packets as P
 import ax12_table as T
 from conftest import R, foreign, records, run_report
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
+                                "test", "support"))
+import doc_samples  # noqa: E402
 
 
 def blocks(stdout):
@@ -256,3 +262,26 @@ def test_a_read_only_item_that_yields_to_a_wider_write_is_caught_and_its_leak_na
     assert all(f["left_by"] == last_wide for f in named if f["address"] in (0, 1)), named
     assert "address 0 (Model Number, low byte): expected 0C, heard FF (left by '%s')" % last_wide in proc.stdout
     assert_every_difference_reported(proc.stdout, md.read_text(), report)
+
+
+# --- docs/conform.md's sample ----------------------------------------------------------------------
+
+def conform_many_line(line):
+    """A summary line with what no two runs share masked: the pty and the socket's paths, the
+    timings (the device answers when its loop comes round, which real time places) and the
+    length of a silence."""
+    line = re.sub(r"^ax12 conform: \S+ \(pty\)", "ax12 conform: PORT (pty)", line)
+    line = re.sub(r"control socket \S+\)", "control socket SOCK)", line)
+    line = re.sub(r"[-+]?\d+\.\d+( us|\.\.)", r"T\1", line)
+    line = re.sub(r"median [-+]?\d+\.\d+", "median T", line)
+    line = re.sub(r"\d+\.\d+ s\b", "S s", line)
+    return line
+
+
+def test_the_many_defect_device_reports_as_docs_conform_shows(serve, tmp_path):
+    """`foreign-many` (every defect above at once) through the whole suite, on the emulator's bus:
+    the summary docs/conform.md shows, case counts, conflicts, silence and failures."""
+    emu = serve(extra=foreign("many"))
+    proc, report = run_report(tmp_path, emu)
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    doc_samples.check("conform-many-defects", proc.stdout, normalize=conform_many_line)

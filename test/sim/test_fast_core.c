@@ -270,9 +270,49 @@ static void test_every_word_matches_simavr(void **state) {
   avr_terminate(b);
 }
 
+/* Near the flash's end, where the next PC can lie past it (the fast core tests the PC there
+ * only): every word in each of the last three flash words, the others random, run in batches
+ * until the core crashes off the flash or the batch ends. Branches, skips and two-word
+ * instructions reach past the end from there. */
+static void test_the_flash_end_matches_simavr(void **state) {
+  (void)state;
+  avr_t *a = make_mcu(), *b = make_mcu();
+  fast_core_t *core = fast_core_new(b);
+  assert_non_null(core);
+  unsigned crashed = 0;
+  for (uint32_t w = 0; w <= 0xffff; w++) {
+    avr_reset(a);
+    avr_reset(b);
+    simavr_extint_poll_off(a);
+    simavr_extint_poll_off(b);
+    fill_random(a, b, false);
+    const uint32_t last = a->flashend - 1u, at = last - 2u * (w % 3u);
+    for (uint32_t pc = last - 4u; pc <= last + 4u; pc++) {
+      a->flash[pc] = b->flash[pc] = (uint8_t)rnd();
+    }
+    a->flash[at] = b->flash[at] = (uint8_t)w;
+    a->flash[at + 1] = b->flash[at + 1] = (uint8_t)(w >> 8);
+    a->pc = b->pc = at - 2u * (rnd() % 2u);
+    keep_in_bounds(a, b);
+    for (unsigned step = 0; step < 4 && a->state == cpu_Running; step++) {
+      const sim_cycles_t until = a->cycle + 1u + rnd() % 12u;
+      run_to(a, NULL, until);
+      run_to(b, core, until);
+      expect_same(a, b, 1, w, (uint16_t)w);
+    }
+    crashed += a->state == cpu_Crashed;
+  }
+  print_message("%u of 65536 programs at the flash's end ran off it\n", crashed);
+  assert_true(crashed > 65536u / 4u);
+  fast_core_free(core);
+  avr_terminate(a);
+  avr_terminate(b);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_every_word_matches_simavr),
+      cmocka_unit_test(test_the_flash_end_matches_simavr),
       cmocka_unit_test(test_random_programs_match_simavr),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);

@@ -1,7 +1,8 @@
 // SPDX-License-Identifier: GPL-3.0-or-later
 // The live dashboard's page: telemetry from the WebSocket into the servo list, uPlot charts of
 // the selected servo (the last HISTORY_S seconds), its control table (editable: each edit is a
-// WRITE the emulator puts on the bus), its world, and the bus monitor.
+// WRITE the emulator puts on the bus), its world, the bus monitor, and with a robot its 3D view
+// (robot_view.js) and its world.
 "use strict";
 
 const HISTORY_S = 15;
@@ -16,6 +17,9 @@ const state = {
   table: null,      // the selected servo's control table, as its last batch of points had it
   rate: null,       // the server's update rate: { hz, full_hz, idle_cores }
   frames: 0,        // frames drawn since the last second began (shown as updates a second)
+  robot: null,      // GET /api/robot's description (docs/robot.md), or null without a robot
+  robotView: null,  // its 3D view, once three.js is loaded (none without WebGL)
+  gravityHeldUntil: 0, // the gravity box, just clicked, is not reset by telemetry older than the change
 };
 
 const $ = (id) => document.getElementById(id);
@@ -134,12 +138,21 @@ function buildCharts() {
   }
 }
 
-// Present Position of every servo in one chart (one series per servo).
+// Present Position of every servo in one chart (one series per servo). Each line is dashed so
+// that the servos' dashes take turns along it: where servos hold the same position (a new bus:
+// all at 512) their lines lie on one another and still show every servo's colour.
+const OVERVIEW_DASH_PX = 6;
+function overviewDash(i, count) {
+  const dash = Math.max(2, Math.round(OVERVIEW_DASH_PX * 3 / Math.max(count, 3)));
+  return count < 2 ? [] : [0, i * dash, dash, (count - 1 - i) * dash];
+}
+
 function buildOverview(slots) {
   state.overviewSlots = slots;
   state.overviewHistory = { t: [], present: slots.map(() => []) };
   const series = [{ label: "t" }].concat(slots.map((slot, i) => ({
-    label: String(slot), stroke: `hsl(${(i * 137) % 360}, 65%, 45%)`, width: 1.2, points: { show: false },
+    label: String(slot), stroke: `hsl(${(i * 137) % 360}, 65%, 45%)`, width: 1.6, points: { show: false },
+    dash: overviewDash(i, slots.length), cap: "butt",
   })));
   const opts = {
     title: "Present Position, every servo (counts)", width: 820, height: 170,
@@ -197,15 +210,18 @@ function scheduleRender() {
 function render() {
   state.renderPending = false;
   state.lastRender = performance.now();
+  if (state.rateTimer === undefined) state.rateTimer = setInterval(showRate, 1000);
   state.frames++;
   const event = state.lastEvent;
   if (event && state.eventDirty) {
     state.eventDirty = false;
     setText($("profile"), `${event.servos.length} servo(s), profile ${event.profile}, ${event.mcu}`);
     setText($("clock"), `t = ${(event.time_us / 1e6).toFixed(2)} s`);
+    if (event.timing) showTiming(event.timing);
     renderServos();
     const s = event.servos.find((x) => x.slot === state.selected);
     if (s) setText($("world-now"), describeWorld(s.world));
+    if (event.robot && state.robot) showRobotPose(event.robot);
   }
   if (state.tableDirty) {
     state.tableDirty = false;
@@ -319,17 +335,120 @@ function describeWorld(w) {
   return `supply ${w.supply} V, ambient ${w.ambient} °C, ${loads[w.load]}`;
 }
 
+// A world field's number, or null after saying, in the page's words, what is wrong with it:
+// its label, the text as typed and the range its data-min / data-max give (those of `serve`'s
+// options, docs/dashboard.md).
+function worldNumber(id) {
+  const input = $(id);
+  const text = input.value.trim();
+  const range = `${input.dataset.min}..${input.dataset.max}`;
+  const value = Number(text);
+  if (text === "" || !Number.isFinite(value)) {
+    say(`World not changed: ${input.dataset.name} ${text === "" ? "is empty" : `'${text}' is not a number`} (${range})`, false);
+    return null;
+  }
+  if (value < Number(input.dataset.min) || value > Number(input.dataset.max)) {
+    say(`World not changed: ${input.dataset.name} ${text} is outside ${range}`, false);
+    return null;
+  }
+  return text;
+}
+
 function applyWorld(event) {
   event.preventDefault();
-  const set = { supply: $("world-supply").value, ambient: $("world-ambient").value };
   const kind = $("world-load-kind").value;
+  const fields = { none: [], torque: ["world-load-torque"], spring: ["world-spring-k", "world-spring-rest"],
+    arm: ["world-arm-kg", "world-arm-m", "world-arm-deg"] }[kind];
+  const values = ["world-supply", "world-ambient", ...fields].map(worldNumber);
+  if (values.includes(null)) return;
+  const [supply, ambient, ...load] = values;
+  const set = { supply, ambient };
   if (kind === "none") set["load-none"] = true;
-  if (kind === "torque") set["load-torque"] = $("world-load-torque").value;
-  if (kind === "spring") set["load-spring"] = $("world-spring-k").value + "," + $("world-spring-rest").value;
-  if (kind === "arm") {
-    set["load-arm"] = $("world-arm-kg").value + "," + $("world-arm-m").value + "," + $("world-arm-deg").value;
-  }
+  else set["load-" + kind] = load.join(",");
   request({ type: "world", slot: state.selected, set });
+}
+
+// ---- robot --------------------------------------------------------------------------------
+
+// The robot's section: its 3D view (three.js is loaded only with a robot, and the page works
+// without WebGL, the view replaced by a line saying why) and the forms that change its world
+// as `scripts/ax12 world` does (docs/robot.md "The robot's world while it runs").
+async function startRobot(robot) {
+  state.robot = robot;
+  $("robot").hidden = false;
+  $("robot-name").textContent = robot.name;
+  const bodies = robot.bodies.slice(1).map((b) => b.name);
+  const preferred = defaultBody(robot);
+  for (const id of ["robot-payload-body", "robot-push-body"]) {
+    $(id).replaceChildren(...bodies.map((name) => new Option(name, name, false, name === preferred)));
+  }
+  $("robot-payload-form").addEventListener("submit", applyPayload);
+  $("robot-push-form").addEventListener("submit", applyPush);
+  $("robot-gravity").addEventListener("change", () => {
+    state.gravityHeldUntil = performance.now() + 1500;
+    request({ type: "robot", set: { gravity: $("robot-gravity").checked } });
+  });
+  showRobotPose(robot.pose);
+  try {
+    const { RobotView } = await import("/static/robot_view.js");
+    state.robotView = new RobotView($("robot-view"), robot, select);
+  } catch (e) {
+    $("robot-view").textContent = `No 3D view in this browser (${e.message || e}); the rest of the page works.`;
+    $("robot-view").className = "bad";
+    return;
+  }
+  state.robotView.highlight(state.selected);
+  $("robot-home").addEventListener("click", () => state.robotView.resetView());
+}
+
+// The body the forms offer first: a floating robot's base (a hexapod's body), else the end of
+// its longest chain (a pendulum's tip, an arm's gripper).
+function defaultBody(robot) {
+  const floating = robot.joints.find((j) => j.type === "free");
+  if (floating) return robot.bodies[floating.body].name;
+  const depth = (i) => (i <= 0 ? 0 : 1 + depth(robot.bodies[i].parent));
+  let deepest = 1;
+  robot.bodies.forEach((_, i) => { if (depth(i) >= depth(deepest)) deepest = i; });
+  return robot.bodies[deepest]?.name;
+}
+
+function showRobotPose(pose) {
+  if (state.robotView) state.robotView.setPose(pose);
+  const w = pose.world;
+  const parts = [`physics t = ${pose.time_s.toFixed(2)} s`, w.gravity ? "gravity on" : "gravity off"];
+  if (w.payloads.length) parts.push("payloads: " + w.payloads.map((p) => `${p.body} ${p.kg} kg`).join(", "));
+  for (const p of w.pushes) parts.push(`pushing ${p.body} with (${p.force_n.join(", ")}) N, ${p.seconds_left.toFixed(2)} s left`);
+  setText($("robot-now"), parts.join("; "));
+  if (performance.now() > state.gravityHeldUntil && $("robot-gravity").checked !== w.gravity) {
+    $("robot-gravity").checked = w.gravity;
+  }
+}
+
+// A field's number, or null with a message (the emulator checks the ranges, the page only
+// that a number was given).
+function numberOf(id, what) {
+  const text = $(id).value.trim();
+  const value = Number(text);
+  if (text === "" || !Number.isFinite(value)) {
+    say(`${what}: give a number`, false);
+    return null;
+  }
+  return value;
+}
+
+function applyPayload(event) {
+  event.preventDefault();
+  const kg = numberOf("robot-payload-kg", "payload kg");
+  if (kg === null) return;
+  request({ type: "robot", set: { payload: { body: $("robot-payload-body").value, kg } } });
+}
+
+function applyPush(event) {
+  event.preventDefault();
+  const force = [["robot-push-x", "push x"], ["robot-push-y", "push y"], ["robot-push-z", "push z"]].map(([id, what]) => numberOf(id, what));
+  const seconds = numberOf("robot-push-s", "push seconds");
+  if (force.includes(null) || seconds === null) return;
+  request({ type: "robot", set: { push: { body: $("robot-push-body").value, force_n: force, seconds } } });
 }
 
 // ---- bus monitor --------------------------------------------------------------------------
@@ -422,6 +541,7 @@ function select(slot) {
   $("selected-name").textContent = s ? `${slot} (ID ${s.id ?? "?"})` : "–";
   buildTable();
   if (s) fillWorld(s);
+  if (state.robotView) state.robotView.highlight(slot);
   renderServos();
   drawCharts();
 }
@@ -463,14 +583,39 @@ function onPoints(batch) {
 
 // Updates a second as drawn (frames in the last second), and why fewer when the server has
 // slowed the whole updates down because the machine has no CPU core to spare (docs/dashboard.md).
+// Counted from the first frame on, once a second: a page still connecting shows no rate. Red
+// only when the server has measured a machine with no core to spare.
 function showRate() {
   const drawn = `${state.frames} updates/s`;
   state.frames = 0;
   const r = state.rate;
   const busy = r && r.hz < r.full_hz;
-  const why = r && r.idle_cores === null ? "while the machine's load is measured" : "no CPU core to spare, the bus comes first";
+  const measuring = r && r.idle_cores === null;
+  const why = measuring ? "while the machine's load is measured" : "no CPU core to spare, the bus comes first";
   setText($("rate"), busy ? `${drawn} (${r.hz}/s: ${why})` : drawn);
-  $("rate").className = busy ? "bad" : "";
+  $("rate").className = busy && !measuring ? "bad" : "";
+}
+
+// Real time as the emulator keeps it (docs/dashboard.md): its scheduling policy, its lag now
+// and at worst, and how long a client's bytes took to reach the bus (p50 / p99 / max) beside how
+// late the replies reached the client, so a late reply can be told from a late request.
+const LATE_MS = 20; // a lag past this shows in red: DynamixelSDK's timeout is about 34 ms
+function showTiming(t) {
+  const ms = (x) => x.toFixed(x < 10 ? 2 : 0);
+  const el = $("timing");
+  if (!t.realtime) {
+    setText(el, "fast (not real time)");
+    el.className = "";
+    return;
+  }
+  const policy = { held: t.policy.split(" (")[0], dropped: "ordinary scheduling (late: policy dropped)",
+                   "not allowed": "ordinary scheduling" }[t.policy_state] || t.policy;
+  const b = t.to_bus_delay, c = t.to_client_late;
+  setText(el, `real time, ${policy}: lag ${ms(t.lag_ms)} ms (worst ${ms(t.worst_lag_ms)}); ` +
+    `client to bus ${ms(b.p50_ms)} / ${ms(b.p99_ms)} / ${ms(b.max_ms)} ms, ` +
+    `replies late ${ms(c.p50_ms)} / ${ms(c.p99_ms)} / ${ms(c.max_ms)} ms (p50 / p99 / max)`);
+  el.title = t.policy;
+  el.className = t.policy_state !== "held" || t.worst_lag_ms > LATE_MS || b.max_ms > LATE_MS ? "bad" : "";
 }
 
 function setText(element, text) {
@@ -505,6 +650,8 @@ function connect() {
 
 async function start() {
   state.items = await (await fetch("/api/items")).json();
+  const robot = (await (await fetch("/api/robot")).json()).robot;
+  if (robot) startRobot(robot);
   buildCharts();
   $("world-load-kind").addEventListener("change", showLoadFields);
   $("world-form").addEventListener("submit", applyWorld);
@@ -536,7 +683,6 @@ async function start() {
   });
   sections.observe($("servos"));
   sections.observe($("selected"));
-  setInterval(showRate, 1000);
   connect();
 }
 

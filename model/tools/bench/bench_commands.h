@@ -13,5 +13,6 @@ void bench_awake(void);                               /* bench_cycles.c */
 typedef enum { BENCH_LOAD_CLIENT_LOOP, BENCH_LOAD_SYNC_WRITES, BENCH_LOAD_GARBAGE } bench_load_t;
 void bench_profile(unsigned servos, double seconds, bench_load_t load); /* bench_cycles.c */
 void bench_stack(void);                               /* bench_stack.c */
+void bench_robot(const char *robot, double seconds);  /* bench_robot.c */
 
 #endif

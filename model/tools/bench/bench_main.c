@@ -17,6 +17,9 @@
  *                                          under a load: the client loop, back-to-back
  *                                          SYNC_WRITEs, or those with bad checksums
  *                                          (scripts/firmware_profile)
+ *   ax12-bench robot ELF ROBOT SECONDS     a robot's servos (--robot NAME|FILE.xml) on their
+ *                                          plants, its physics in lock-step: speed holding
+ *                                          and under the client loop, the physics' steps
  */
 #include <stdio.h>
 #include <stdlib.h>
@@ -27,7 +30,7 @@
 
 int main(int argc, char **argv) {
   if (argc < 3) {
-    fprintf(stderr, "usage: ax12-bench turnaround|rdt|sustained|speed|stack|awake|profile ELF [args]\n");
+    fprintf(stderr, "usage: ax12-bench turnaround|rdt|sustained|speed|stack|awake|profile|robot ELF [args]\n");
     return 2;
   }
   bench_elf_path = argv[2];
@@ -43,6 +46,8 @@ int main(int argc, char **argv) {
     bench_stack();
   } else if (strcmp(argv[1], "speed") == 0 && argc > 4) {
     bench_speed((unsigned)atoi(argv[3]), atof(argv[4]));
+  } else if (strcmp(argv[1], "robot") == 0 && argc > 4) {
+    bench_robot(argv[3], atof(argv[4]));
   } else if (strcmp(argv[1], "profile") == 0 && argc > 4) {
     const char *load = argc > 5 ? argv[5] : "loop";
     bench_profile((unsigned)atoi(argv[3]), atof(argv[4]),

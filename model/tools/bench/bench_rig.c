@@ -31,19 +31,31 @@ void bench_die(const char *what, const char *detail) {
   exit(1);
 }
 
-void bench_rig_open(bench_rig_t *r, unsigned servos) {
+void bench_rig_create(bench_rig_t *r, const uint8_t *ids, size_t count) {
   char err[512];
   r->world = world_create(bench_elf_path, strstr(bench_elf_path, "atmega328p") ? "atmega328p" : "atmega88",
                           strstr(bench_elf_path, "ax12a-") ? EEPROM_PROFILE_AX12A : EEPROM_PROFILE_AX12, err,
                           sizeof err);
   if (!r->world) bench_die("cannot load the firmware", err);
-  for (unsigned id = 1; id <= servos; id++) {
-    if (!world_add_servo(r->world, (uint8_t)id, 1, NULL, err, sizeof err)) bench_die("cannot add a servo", err);
+  for (size_t i = 0; i < count; i++) {
+    if (!world_add_servo(r->world, ids[i], 1, NULL, err, sizeof err)) bench_die("cannot add a servo", err);
   }
   r->master = world_add_master(r->world, 1e6);
   if (!r->master) bench_die("cannot add the master", NULL);
   r->requester = world_requester(r->world, r->master, bench_wait);
+}
+
+void bench_rig_power_up(bench_rig_t *r) {
   world_run_until(r->world, r->world->now + MS(300)); /* power-up: LED blinks, ADC settles */
+}
+
+void bench_rig_open(bench_rig_t *r, unsigned servos) {
+  uint8_t ids[256];
+  for (unsigned id = 1; id <= servos; id++) {
+    ids[id - 1u] = (uint8_t)id;
+  }
+  bench_rig_create(r, ids, servos);
+  bench_rig_power_up(r);
 }
 
 void bench_rig_close(bench_rig_t *r) {

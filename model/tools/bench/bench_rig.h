@@ -38,6 +38,10 @@ double bench_wall_s(void);
 
 /* Servos 1..servos (EEPROM in memory, 1 Mbps) and the master, after 300 ms of power-up. */
 void bench_rig_open(bench_rig_t *r, unsigned servos);
+/* The world with servos of the given IDs and the master, not yet powered up (the caller adds
+ * what the servos drive first); bench_rig_power_up runs the 300 ms of power-up. */
+void bench_rig_create(bench_rig_t *r, const uint8_t *ids, size_t count);
+void bench_rig_power_up(bench_rig_t *r);
 void bench_rig_close(bench_rig_t *r);
 
 /* Sends bytes; returns the cycles from their last stop bit to the start of the first byte

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "emu_robot.h"
 #include "emu_world_request.h"
 #include "pacing.h"
 
@@ -156,6 +157,7 @@ static void handle_subscribe(emu_control_t *c, unsigned client, const cJSON *req
   }
   c->table_due_us[client] = 0.0;
   c->with_packets[client] = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(req, "packets"));
+  c->without_robot[client] = cJSON_IsFalse(cJSON_GetObjectItemCaseSensitive(req, "robot"));
   /* "servos": [slots]: telemetry of those servos only (a page's charts of the one it shows) */
   const cJSON *slots = cJSON_GetObjectItemCaseSensitive(req, "servos");
   c->filtered[client] = cJSON_IsArray(slots);
@@ -194,7 +196,8 @@ static void push_telemetry(emu_control_t *c, double wall) {
         c->table_due_us[i] = wall + c->table_period_us[i];
       }
     }
-    send_json(c, i, emu_status_json(&c->servos, true, table, c->filtered[i] ? c->only_slots[i] : NULL));
+    send_json(c, i, emu_status_json(&c->servos, true, table, c->filtered[i] ? c->only_slots[i] : NULL,
+                                    !c->without_robot[i]));
   }
 }
 
@@ -230,7 +233,7 @@ static void on_line(void *ctx, control_socket_t *cs, unsigned client, char *line
     send_error(c, client, NULL, "a request is one JSON object with \"op\" per line");
   } else if (strcmp(op->valuestring, "status") == 0) {
     const bool table = cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(req, "table"));
-    cJSON *status = emu_status_json(&c->servos, false, table, NULL);
+    cJSON *status = emu_status_json(&c->servos, false, table, NULL, true);
     cJSON_AddStringToObject(status, "device", c->device);
     send_json(c, client, status);
   } else if (strcmp(op->valuestring, "world") == 0) {
@@ -241,21 +244,29 @@ static void on_line(void *ctx, control_socket_t *cs, unsigned client, char *line
     } else {
       send_error(c, client, "world", err);
     }
+  } else if (strcmp(op->valuestring, "robot") == 0) {
+    char err[256];
+    cJSON *answer = c->servos.robot ? emu_robot_request(c->servos.robot, req, err, sizeof err) : NULL;
+    if (answer) {
+      send_json(c, client, answer);
+    } else {
+      send_error(c, client, "robot", c->servos.robot ? err : "no robot: the emulator runs without --robot");
+    }
   } else if (strcmp(op->valuestring, "send") == 0) {
     handle_send(c, client, req);
   } else if (strcmp(op->valuestring, "subscribe") == 0) {
     handle_subscribe(c, client, req);
   } else {
-    send_error(c, client, op->valuestring, "unknown op (status, world, send, subscribe)");
+    send_error(c, client, op->valuestring, "unknown op (status, world, robot, send, subscribe)");
   }
   cJSON_Delete(req);
 }
 
-int emu_control_open(emu_control_t *c, const char *path, world_t *world, pty_bridge_t *pty,
+int emu_control_open(emu_control_t *c, const char *path, world_t *world, world_robot_t *robot, pty_bridge_t *pty,
                      plant_options_t *worlds, const uint8_t *slot_ids, const char *elf_path,
                      bus_monitor_t **monitor, char *err, size_t err_len) {
   memset(c, 0, sizeof(*c));
-  c->servos = (emu_servos_t){.world = world, .worlds = worlds, .slot_ids = slot_ids};
+  c->servos = (emu_servos_t){.world = world, .worlds = worlds, .slot_ids = slot_ids, .robot = robot};
   c->device = pty->device;
   servo_probe_locate(elf_path, &c->servos.map);
   if (emu_bus_master_open(&c->master, world, pty, &c->servos.map) != 0) {
@@ -269,6 +280,13 @@ int emu_control_open(emu_control_t *c, const char *path, world_t *world, pty_bri
   c->socket.on_line = on_line;
   c->socket.ctx = c;
   return 0;
+}
+
+void emu_control_show_timing(emu_control_t *c, const pacing_t *pacing, const pty_bridge_t *pty,
+                             const emu_realtime_t *realtime) {
+  c->servos.pacing = pacing;
+  c->servos.pty = pty;
+  c->servos.realtime = realtime;
 }
 
 void emu_control_close(emu_control_t *c) {

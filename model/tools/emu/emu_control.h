@@ -11,6 +11,8 @@
  *   {"op":"send","bytes":"FF FF 03 04 03 19 01 DB"}  a Protocol 1.0 packet onto the bus as a
  *                                              second master, once the bus is idle; the
  *                                              answer holds the servo's reply bytes
+ *   {"op":"robot"} / {"op":"robot","set":{...}} the robot (--robot): its description, pose and
+ *                                              world, or a change of its world (emu_robot.h)
  *   {"op":"subscribe","telemetry_hz":25,"table":true,"packets":true,"servos":[3]}
  *                                              status lines pushed at that rate (1..100 Hz;
  *                                              0 stops), with the control tables ("table_hz":
@@ -18,7 +20,9 @@
  *                                              of the servos listed ("servos", slot IDs) or all and, with "packets", every packet of
  *                                              the bus monitor (bus_monitor.h), in batches
  *                                              {"event":"packets","packets":[...]} at most
- *                                              PACKET_BATCH_PERIOD_US apart
+ *                                              PACKET_BATCH_PERIOD_US apart; with a robot,
+ *                                              its pose in every telemetry event unless
+ *                                              "robot":false
  * Every request gets one line back: {"ok":true,...} or {"ok":false,"error":"..."}; pushed lines
  * carry "event" instead. A bad request changes nothing. */
 #ifndef EMU_CONTROL_H
@@ -50,6 +54,7 @@ typedef struct {
   double table_period_us[CONTROL_MAX_CLIENTS];
   double table_due_us[CONTROL_MAX_CLIENTS];
   bool with_packets[CONTROL_MAX_CLIENTS];
+  bool without_robot[CONTROL_MAX_CLIENTS];  /* "robot":false: no pose in its telemetry */
   bool filtered[CONTROL_MAX_CLIENTS];       /* telemetry of only_slots[client] only */
   bool only_slots[CONTROL_MAX_CLIENTS][256];
   double next_poll_us; /* wall clock */
@@ -57,12 +62,16 @@ typedef struct {
 } emu_control_t;
 
 /* Opens the socket at path. worlds and slot_ids: one per servo of the world, kept by the
- * caller; worlds are updated by "world" requests. *monitor: the bus monitor of --log-bus when
+ * caller; worlds are updated by "world" requests; robot: --robot's, NULL when none. *monitor: the bus monitor of --log-bus when
  * there is one (else NULL: one is made while packets are subscribed). -1 with err set. */
-int emu_control_open(emu_control_t *c, const char *path, world_t *world, pty_bridge_t *pty,
+int emu_control_open(emu_control_t *c, const char *path, world_t *world, world_robot_t *robot, pty_bridge_t *pty,
                      plant_options_t *worlds, const uint8_t *slot_ids, const char *elf_path,
                      bus_monitor_t **monitor, char *err, size_t err_len);
 void emu_control_close(emu_control_t *c);
+
+/* Status and telemetry carry "timing" from these from now on (emu_status.h). */
+void emu_control_show_timing(emu_control_t *c, const pacing_t *pacing, const pty_bridge_t *pty,
+                             const emu_realtime_t *realtime);
 
 /* Between world steps: requests, pushed telemetry and packets, and the packet on the bus. */
 void emu_control_poll(emu_control_t *c);

@@ -10,6 +10,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "bus.h"
 #include "bus_noise.h"
 #include "elf_check.h"
 #include "emu_firmware_choice.h"
@@ -32,8 +33,10 @@ static const char usage_text[] =
     "                      once a bootloader changed the flash; both survive restarts\n"
     "  --profile NAME      ax12 (2006 manual, default) or ax12a\n"
     "  --mcu NAME          atmega88 (default) or atmega328p\n"
-    "  --baud VALUE        Baud Rate register of servos without a state file, 0..254\n"
-    "                      (default 1 = 1 Mbps; 2000000 / (VALUE + 1) bit/s)\n"
+    "  --baud BPS          bit/s of servos without a state file, as a client sets it\n"
+    "                      (default 1000000): an AX-12 rate, 2000000 / (N + 1) for N\n"
+    "                      0..254, or within 3 % of one (57600, 115200, 9600...)\n"
+    "  --baud-register N   the same as the Baud Rate register's value N, 0..254\n"
     "  --realtime          simulated time follows the wall clock (default)\n"
     "  --fast              no throttling: simulate as fast as the host allows\n"
     "  --elf PATH          firmware ELF (default: <firmware-dir>/ax12-<profile>-<mcu>.elf)\n"
@@ -53,6 +56,16 @@ static const char usage_text[] =
     "                      client when a USB packet fills or the timer expires; a write\n"
     "                      reaches the wire at the next USB frame; the bus sees the baud\n"
     "                      the chip makes of the client's (docs/emulator.md)\n"
+    "  --robot NAME|FILE.xml\n"
+    "                      a robot of AX-12s (docs/robot.md): a MuJoCo model whose joints\n"
+    "                      bound to servo IDs (<numeric name=\"ax12:JOINT\" data=\"ID\"/>)\n"
+    "                      are those servos' output shafts, its physics stepped in lock with\n"
+    "                      the firmwares; shipped: pendulum, arm, hexapod. Its servos join\n"
+    "                      --ids (without --ids: only they); servos not in it keep the loads\n"
+    "  --log-joints FILE   with --robot: every physics step's simulated time and qpos, one\n"
+    "                      CSV row each (exact: 17 significant digits)\n"
+    "  --play-bus FILE     put the client's packets of a --log-bus CSV on the bus at their\n"
+    "                      recorded simulated times (a scripted master beside the pty)\n"
     "  --world ID:OPTION=VALUE\n"
     "                      servo ID's own world, over the bus-wide options below (repeat\n"
     "                      for more), e.g. --world 3:load-torque=1.2 --world 3:supply=7\n"
@@ -96,7 +109,7 @@ static int fail_usage(const char *fmt, ...) {
   fputs("ax12-emu: ", stderr);
   vfprintf(stderr, fmt, ap);
   va_end(ap);
-  fputs(" (see ax12-emu serve --help)\n", stderr);
+  fputs(" (see scripts/ax12 serve --help)\n", stderr);
   return EMU_EXIT_USAGE;
 }
 
@@ -108,6 +121,26 @@ static bool parse_uint(const char *text, unsigned max, unsigned *value) {
     return false;
   }
   *value = (unsigned)v;
+  return true;
+}
+
+/* The Baud Rate register value whose rate, 2000000 / (N + 1) bit/s, is nearest to bps, when
+ * within the tolerance a receiver takes (BUS_BAUD_TOLERANCE): a client at bps talks to it. */
+static bool baud_register_of_bps(const char *text, unsigned *reg) {
+  unsigned bps = 0;
+  if (!parse_uint(text, 100000000u, &bps) || bps == 0) {
+    return false;
+  }
+  unsigned best = 0;
+  for (unsigned n = 1; n <= 254u; n++) {
+    if (fabs(sim_baud_reg_to_bps(n) - bps) < fabs(sim_baud_reg_to_bps(best) - bps)) {
+      best = n;
+    }
+  }
+  if (fabs(sim_baud_reg_to_bps(best) - bps) > BUS_BAUD_TOLERANCE * bps) {
+    return false;
+  }
+  *reg = best;
   return true;
 }
 
@@ -218,11 +251,50 @@ static bool id_listed(const serve_options_t *o, uint8_t id) {
   return false;
 }
 
+/* --robot: the model loaded and checked, its servos joined to --ids (only they without
+ * --ids), no --world load or angle on a servo of it. -1 when it goes on, else the exit status
+ * (one line on stderr). */
+static int load_robot(serve_options_t *o) {
+  char err[1024];
+  o->robot = calloc(1, sizeof(*o->robot));
+  if (!o->robot) {
+    fprintf(stderr, "ax12-emu: --robot: out of memory\n");
+    return 1;
+  }
+  if (!robot_model_load(o->robot, o->robot_spec, AX12_ROBOTS_DIR, err, sizeof err)) {
+    fprintf(stderr, "ax12-emu: --robot %s: %s\n", o->robot_spec, err);
+    free(o->robot);
+    o->robot = NULL;
+    return EMU_EXIT_USAGE;
+  }
+  if (!o->ids_given) {
+    o->id_count = 0;
+  }
+  for (size_t i = 0; i < o->robot->binding_count; i++) {
+    if (!id_listed(o, o->robot->bindings[i].id)) {
+      o->ids[o->id_count++] = o->robot->bindings[i].id;
+    }
+  }
+  for (size_t i = 0; i < o->servo_world_count; i++) {
+    const servo_world_option_t *w = &o->servo_world[i];
+    const robot_binding_t *b = robot_model_binding(o->robot, w->id);
+    if (b && (strncmp(w->option, "load-", 5) == 0 || strcmp(w->option, "angle") == 0)) {
+      fprintf(stderr, "ax12-emu: --world %u:%s: servo %u is joint '%s' of the robot: its load and its angle are the "
+                      "robot's\n", w->id, w->option, w->id, b->name);
+      return EMU_EXIT_USAGE;
+    }
+  }
+  if (o->robot->note[0]) {
+    fprintf(stderr, "ax12-emu: --robot %s: %s\n", o->robot_spec, o->robot->note);
+  }
+  return -1;
+}
+
 int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
-  enum { OPT_IDS = 256, OPT_LINK, OPT_STATE_DIR, OPT_PROFILE, OPT_MCU, OPT_BAUD, OPT_REALTIME, OPT_FAST, OPT_ELF,
+  enum { OPT_IDS = 256, OPT_LINK, OPT_STATE_DIR, OPT_PROFILE, OPT_MCU, OPT_BAUD, OPT_BAUD_REGISTER, OPT_REALTIME, OPT_FAST, OPT_ELF,
          OPT_FIRMWARE_DIR, OPT_STATS, OPT_BIT_ERROR_RATE, OPT_SEED, OPT_ADAPTER,
          OPT_WORLD, OPT_CONTROL, OPT_DASHBOARD, OPT_LOG_BUS,
-         OPT_TRACE, OPT_TRACE_IDS, OPT_GDB, OPT_BOOTLOADER };
+         OPT_TRACE, OPT_TRACE_IDS, OPT_GDB, OPT_BOOTLOADER, OPT_ROBOT, OPT_LOG_JOINTS, OPT_PLAY_BUS };
   static const struct option long_options[] = {
       {"ids", required_argument, NULL, OPT_IDS},
       {"link", required_argument, NULL, OPT_LINK},
@@ -230,6 +302,7 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       {"profile", required_argument, NULL, OPT_PROFILE},
       {"mcu", required_argument, NULL, OPT_MCU},
       {"baud", required_argument, NULL, OPT_BAUD},
+      {"baud-register", required_argument, NULL, OPT_BAUD_REGISTER},
       {"realtime", no_argument, NULL, OPT_REALTIME},
       {"fast", no_argument, NULL, OPT_FAST},
       {"elf", required_argument, NULL, OPT_ELF},
@@ -246,6 +319,9 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       {"trace", required_argument, NULL, OPT_TRACE},
       {"trace-ids", required_argument, NULL, OPT_TRACE_IDS},
       {"gdb", required_argument, NULL, OPT_GDB},
+      {"robot", required_argument, NULL, OPT_ROBOT},
+      {"log-joints", required_argument, NULL, OPT_LOG_JOINTS},
+      {"play-bus", required_argument, NULL, OPT_PLAY_BUS},
       PLANT_LONG_OPTIONS,
       {"help", no_argument, NULL, 'h'},
       {NULL, 0, NULL, 0},
@@ -255,7 +331,8 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
   o->ids[0] = 1;
   o->id_count = 1;
   o->mcu = "atmega88";
-  o->baud = 1;
+  o->baud_register = 1;
+  const char *baud_given = NULL; /* --baud or --baud-register, as given: one of the two */
   o->realtime = true;
   o->firmware_dir = AX12_DEFAULT_FIRMWARE_DIR;
   o->noise_seed = BUS_NOISE_DEFAULT_SEED;
@@ -271,6 +348,22 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       if (!id_list_parse(optarg, o->ids, &o->id_count, err, sizeof(err))) {
         return fail_usage("--ids: %s", err);
       }
+      o->ids_given = true;
+      break;
+    case OPT_ROBOT:
+      o->robot_spec = optarg;
+      break;
+    case OPT_LOG_JOINTS:
+      if (!optarg[0]) {
+        return fail_usage("empty --log-joints");
+      }
+      o->log_joints = optarg;
+      break;
+    case OPT_PLAY_BUS:
+      if (!optarg[0]) {
+        return fail_usage("empty --play-bus");
+      }
+      o->play_bus = optarg;
       break;
     case OPT_LINK:
       o->link = optarg;
@@ -293,8 +386,18 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
       o->mcu = optarg;
       break;
     case OPT_BAUD:
-      if (!parse_uint(optarg, 254, &o->baud)) {
-        return fail_usage("bad --baud '%s': a Baud Rate register value 0..254", optarg);
+    case OPT_BAUD_REGISTER:
+      if (baud_given) {
+        return fail_usage("%s and %s: give the servos' rate once", baud_given,
+                          c == OPT_BAUD ? "--baud" : "--baud-register");
+      }
+      baud_given = c == OPT_BAUD ? "--baud" : "--baud-register";
+      if (c == OPT_BAUD && !baud_register_of_bps(optarg, &o->baud_register)) {
+        return fail_usage("bad --baud '%s': bit/s an AX-12 runs at, 2000000 / (N + 1) for N 0..254 or within 3 %% "
+                          "of one (e.g. 1000000, 57600; --baud-register N gives N itself)", optarg);
+      }
+      if (c == OPT_BAUD_REGISTER && !parse_uint(optarg, 254, &o->baud_register)) {
+        return fail_usage("bad --baud-register '%s': a Baud Rate register value 0..254", optarg);
       }
       break;
     case OPT_REALTIME:
@@ -395,6 +498,19 @@ int emu_parse_serve_options(int argc, char **argv, serve_options_t *o) {
   }
   if (optind < argc) {
     return fail_usage("unexpected argument '%s'", argv[optind]);
+  }
+  if (o->log_joints && !o->robot_spec) {
+    return fail_usage("--log-joints without --robot");
+  }
+  if (o->robot_spec) {
+    const int status = load_robot(o);
+    if (status >= 0) {
+      return status;
+    }
+  }
+  if (o->play_bus && emu_bus_play_load(&o->play, o->play_bus, err, sizeof(err)) != 0) {
+    fprintf(stderr, "ax12-emu: %s\n", err);
+    return EMU_EXIT_USAGE;
   }
   if (o->trace_id_count && !o->trace_path) {
     return fail_usage("--trace-ids without --trace");

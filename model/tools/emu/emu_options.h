@@ -11,8 +11,10 @@
 #include <stdio.h>
 
 #include "eeprom_store.h"
+#include "emu_bus_play.h"
 #include "id_list.h"
 #include "plant_options.h"
+#include "robot_model.h"
 #include "usb_adapter.h"
 
 /* --world ID:OPTION=VALUE entries at most. */
@@ -31,11 +33,17 @@ typedef struct {
 typedef struct {
   uint8_t ids[ID_LIST_MAX_ID + 1u];
   size_t id_count;
+  bool ids_given;                /* --ids given (else only the robot's servos, or servo 1) */
+  const char *robot_spec;        /* --robot NAME|FILE.xml, NULL: none */
+  robot_model_t *robot;          /* loaded and checked by the parser; its servos are in ids */
+  const char *log_joints;        /* --log-joints FILE.csv, NULL: none */
+  const char *play_bus;          /* --play-bus FILE.csv, NULL: none */
+  emu_bus_play_t play;           /* its rows, read by the parser */
   const char *link;
   char state_dir[PATH_MAX];
   eeprom_profile_t profile;
   const char *mcu;
-  unsigned baud;
+  unsigned baud_register;        /* Baud Rate of servos without a state file (--baud, --baud-register) */
   bool realtime;
   char elf[PATH_MAX];
   char bootloader[PATH_MAX];    /* the bootloader ELF beside the application; "" = none */
@@ -62,6 +70,11 @@ typedef struct {
 
 #define EMU_GDB_DEFAULT_PORT 1234u
 
+/* Where the robots shipped with the project are (--robot NAME). */
+#ifndef AX12_ROBOTS_DIR
+#define AX12_ROBOTS_DIR "model/robots"
+#endif
+
 /* Servo `id`'s world: the bus-wide options with its own --world entries over them (a load of
  * its own replaces the bus-wide one). False with err set when they conflict (the parser
  * checks every servo's, so after it this is always true). */
@@ -70,7 +83,8 @@ bool emu_servo_world(const serve_options_t *o, uint8_t id, plant_options_t *worl
 /* Prints the usage text, the world options included. */
 void emu_print_usage(FILE *out);
 
-/* Parses `serve [options]` (argv[0] is "serve"), checks the state directory (created if
+/* Parses `serve [options]` (argv[0] is "serve"), loads and checks --robot's model (its servos
+ * join --ids), checks the state directory (created if
  * needed), the ELF and the bootloader ELF (default: <firmware-dir>/ax12-boot-<mcu>.elf on the
  * ATmega328P when that file exists, none on the ATmega88). Returns -1 when the program goes on, else its exit status: 0 after
  * --help, EMU_EXIT_USAGE for bad input (one line on stderr), 1 for an unusable state

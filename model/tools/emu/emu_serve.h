@@ -8,8 +8,9 @@
 #include "emu_options.h"
 
 /* Runs until SIGINT, SIGTERM or SIGHUP. Prints `ready: <device>` on stdout once every servo
- * listens (at most 2 s of simulated boot), everything else on stderr. Returns the exit
- * status: 0 after a clean stop, 1 when a servo, the pty or persisting failed. */
+ * listens (at most 2 s of simulated boot) and 10 ms of simulated time more ran on time (in
+ * real time: the first request is served in real time), everything else on stderr. Returns
+ * the exit status: 0 after a clean stop, 1 when a servo, the pty or persisting failed. */
 int emu_serve(const serve_options_t *o);
 
 #endif

@@ -17,6 +17,12 @@ static bool check_state_file(servo_t *servo, const char *path, unsigned id, char
   char why[160];
   if (eeprom_store_file_fits(path, servo->eeprom_size, why, sizeof why)) {
     if (eeprom_store_image_fields(servo->eeprom, servo->eeprom_size, NULL, NULL)) {
+      if (eeprom_store_cut_slot(servo->eeprom, servo->eeprom_size)) {
+        fprintf(stderr,
+                "ax12-emu: warning: servo %u: the newer settings in %s fail their check (a store cut by a power "
+                "loss or a kill, or a damaged file): it boots the settings stored before them\n",
+                id, path);
+      }
       return true;
     }
     snprintf(why, sizeof why, "no valid settings image");
@@ -58,12 +64,14 @@ static void report_flash_origin(const servo_t *servo, unsigned id, const char *m
 bool emu_state_files_add_servos(world_t *world, const serve_options_t *o, emu_state_locks_t *locks) {
   char err[512];
   locks->count = 0;
+  locks->state_dir = o->state_dir;
   for (size_t i = 0; i < o->id_count; i++) {
     char path[PATH_MAX + 32];
     eeprom_store_path(path, sizeof(path), o->state_dir, o->ids[i]);
     const int lock = state_lock_take(path, err, sizeof(err));
-    servo_t *servo = lock < 0 ? NULL : world_add_servo(world, o->ids[i], (uint8_t)o->baud, path, err, sizeof(err));
+    servo_t *servo = lock < 0 ? NULL : world_add_servo(world, o->ids[i], (uint8_t)o->baud_register, path, err, sizeof(err));
     if (lock >= 0) {
+      locks->slots[locks->count] = o->ids[i];
       locks->fds[locks->count++] = lock;
     }
     if (!servo || !check_state_file(servo, path, o->ids[i], err, sizeof(err))) {
@@ -78,7 +86,9 @@ bool emu_state_files_add_servos(world_t *world, const serve_options_t *o, emu_st
 
 void emu_state_locks_release(emu_state_locks_t *locks) {
   for (size_t i = 0; i < locks->count; i++) {
-    state_lock_release(locks->fds[i]);
+    char path[PATH_MAX + 32];
+    eeprom_store_path(path, sizeof(path), locks->state_dir, locks->slots[i]);
+    state_lock_release(locks->fds[i], path);
   }
   locks->count = 0;
 }

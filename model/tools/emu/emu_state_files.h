@@ -16,23 +16,26 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 
 #include "emu_options.h"
 #include "world.h"
 
-/* The state files' locks held (file descriptors of state_lock_take). */
+/* The state files' locks held (file descriptors of state_lock_take, with the slot each is for). */
 typedef struct {
   int fds[ID_LIST_MAX_ID + 1u];
+  uint8_t slots[ID_LIST_MAX_ID + 1u];
   size_t count;
+  const char *state_dir;
 } emu_state_locks_t;
 
-/* Adds one servo per ID of o->ids, at o->baud when its state file has none, as above; locks
+/* Adds one servo per ID of o->ids, at o->baud_register when its state file has none, as above; locks
  * starts empty. False after one line on stderr ("ax12-emu: servo N: why") when a file is
  * locked by another emulator, a servo cannot be made, or a bad state file cannot be kept
  * aside; the locks taken are then released (the world keeps the servos added). */
 bool emu_state_files_add_servos(world_t *world, const serve_options_t *o, emu_state_locks_t *locks);
 
-/* Releases every lock (after the last state file was written). */
+/* Releases every lock and removes its lock file (after the last state file was written). */
 void emu_state_locks_release(emu_state_locks_t *locks);
 
 #endif

@@ -28,7 +28,33 @@ static void print_adapter_stats(const pty_bridge_t *pty) {
           pty->actual_bps);
 }
 
-void emu_stats_print(const world_t *world, const pty_bridge_t *pty, const pacing_t *pacing) {
+/* The start-up and the delays of real time (pty_bridge.h): the client's bytes to the bus, the
+ * adapter's hand-overs to the pty, the lag, the pacing thread's yields and drops of its
+ * scheduling policy, and that policy. */
+static void print_timing(const pty_bridge_t *pty, const pacing_t *pacing, const emu_realtime_t *rt) {
+  const delay_histogram_t *in = &pty->to_bus_delay;
+  fprintf(stderr,
+          "ax12-emu: timing: boot %.1f ms simulated in %.1f ms, warm-up %.1f ms; client to bus delay p50 %.3f / "
+          "p99 %.3f / max %.3f ms over %llu writes (the pty reader's wait for a CPU at most %.3f ms)",
+          rt->boot_sim_us / 1e3, rt->boot_wall_us / 1e3, rt->warm_wall_us / 1e3,
+          delay_histogram_quantile_us(in, 0.5) / 1e3, delay_histogram_quantile_us(in, 0.99) / 1e3, in->max_us / 1e3,
+          (unsigned long long)in->count, pty->reader_wait_max_us / 1e3);
+  if (pacing->realtime) {
+    const delay_histogram_t *out = &pty->to_client_late;
+    fprintf(stderr,
+            "; hand-overs to the client late p50 %.3f / p99 %.3f / max %.3f ms over %llu; worst lag %.3f ms; "
+            "behind real time: %llu yields of the CPU, the policy dropped %llu times (%.1f s)",
+            delay_histogram_quantile_us(out, 0.5) / 1e3, delay_histogram_quantile_us(out, 0.99) / 1e3,
+            out->max_us / 1e3, (unsigned long long)out->count, pacing->max_behind_us / 1e3,
+            (unsigned long long)pacing->rt.yields, (unsigned long long)pacing->rt.drops, pacing->rt.dropped_us / 1e6);
+  }
+  char policy[sizeof(rt->why_not) + 64];
+  emu_realtime_describe(rt, policy, sizeof(policy));
+  fprintf(stderr, "; scheduling: %s\n", policy);
+}
+
+void emu_stats_print(const world_t *world, const pty_bridge_t *pty, const pacing_t *pacing,
+                     const emu_realtime_t *rt) {
   fprintf(stderr, "ax12-emu: simulated %.3f s at %.2fx real time; ", sim_cycles_to_us(world->now) / 1e6,
           pacing_speed(pacing, world->now));
   if (pacing->realtime) {
@@ -40,6 +66,7 @@ void emu_stats_print(const world_t *world, const pty_bridge_t *pty, const pacing
           (unsigned long long)pty->dropped_to_client, (unsigned long long)world->bus.collided_bytes,
           (unsigned long long)world->bus.mismatched_deliveries);
   print_adapter_stats(pty);
+  print_timing(pty, pacing, rt);
   if (world->bus.noise.bit_error_rate > 0.0) {
     fprintf(stderr, "ax12-emu: noise at %g per bit: %llu bytes corrupted, %llu bits flipped\n",
             world->bus.noise.bit_error_rate, (unsigned long long)world->bus.noise_corrupted_bytes,

@@ -5,6 +5,11 @@
 
 #include "dxl_table.h"
 #include "eeprom_store.h"
+#include "emu_robot.h"
+
+const robot_binding_t *emu_servo_joint(const emu_servos_t *v, size_t index) {
+  return v->robot ? robot_model_binding(v->robot->model, v->slot_ids[index]) : NULL;
+}
 
 static const char *load_name(const ax12_load_t *load) {
   switch (load->kind) {
@@ -79,11 +84,48 @@ static cJSON *servo_json(const emu_servos_t *v, size_t index, bool with_table) {
     cJSON_AddNumberToObject(j, "supply_v", p.terminal_v);
     cJSON_AddNumberToObject(j, "load_torque_nm", p.load_torque_nm);
   }
+  const robot_binding_t *joint = emu_servo_joint(v, index);
+  if (joint) {
+    /* its load is the robot: gravity and the robot's motion on the joint (MuJoCo's bias
+     * force; contacts not counted) */
+    cJSON_AddStringToObject(j, "joint", joint->name);
+    cJSON_ReplaceItemInObject(j, "load_torque_nm",
+                              cJSON_CreateNumber(-v->robot->physics.data->qfrc_bias[joint->dof]));
+  }
   cJSON_AddItemToObject(j, "world", emu_world_json(&v->worlds[index]));
   return j;
 }
 
-cJSON *emu_status_json(const emu_servos_t *v, bool event, bool with_table, const bool *only_slots) {
+static cJSON *delays_json(const delay_histogram_t *h) {
+  cJSON *j = cJSON_CreateObject();
+  cJSON_AddNumberToObject(j, "count", (double)h->count);
+  cJSON_AddNumberToObject(j, "p50_ms", delay_histogram_quantile_us(h, 0.5) / 1e3);
+  cJSON_AddNumberToObject(j, "p99_ms", delay_histogram_quantile_us(h, 0.99) / 1e3);
+  cJSON_AddNumberToObject(j, "max_ms", h->max_us / 1e3);
+  return j;
+}
+
+static cJSON *timing_json(const emu_servos_t *v) {
+  cJSON *j = cJSON_CreateObject();
+  char policy[sizeof(v->realtime->why_not) + 64];
+  emu_realtime_describe(v->realtime, policy, sizeof(policy));
+  cJSON_AddBoolToObject(j, "realtime", v->pacing->realtime);
+  cJSON_AddStringToObject(j, "policy", policy);
+  const char *state = !v->realtime->asked ? "fast" : !v->realtime->held ? "not allowed"
+                      : v->pacing->rt.held ? "held" : "dropped";
+  cJSON_AddStringToObject(j, "policy_state", state);
+  if (v->pacing->realtime) {
+    const double ahead_us = pacing_ahead_us(v->pacing, v->world->now);
+    cJSON_AddNumberToObject(j, "lag_ms", ahead_us < 0.0 ? -ahead_us / 1e3 : 0.0);
+    cJSON_AddNumberToObject(j, "worst_lag_ms", v->pacing->max_behind_us / 1e3);
+    cJSON_AddNumberToObject(j, "speed", pacing_speed(v->pacing, v->world->now));
+    cJSON_AddItemToObject(j, "to_client_late", delays_json(&v->pty->to_client_late));
+  }
+  cJSON_AddItemToObject(j, "to_bus_delay", delays_json(&v->pty->to_bus_delay));
+  return j;
+}
+
+cJSON *emu_status_json(const emu_servos_t *v, bool event, bool with_table, const bool *only_slots, bool with_robot) {
   cJSON *j = cJSON_CreateObject();
   if (event) {
     cJSON_AddStringToObject(j, "event", "telemetry");
@@ -94,12 +136,18 @@ cJSON *emu_status_json(const emu_servos_t *v, bool event, bool with_table, const
   cJSON_AddNumberToObject(j, "time_us", sim_cycles_to_us(v->world->now));
   cJSON_AddStringToObject(j, "profile", eeprom_profile_name(v->world->profile));
   cJSON_AddStringToObject(j, "mcu", v->world->mcu);
+  if (v->pacing) {
+    cJSON_AddItemToObject(j, "timing", timing_json(v));
+  }
   cJSON *servos = cJSON_AddArrayToObject(j, "servos");
   for (size_t i = 0; i < v->world->servo_count; i++) {
     if (only_slots && !only_slots[v->slot_ids[i]]) {
       continue;
     }
     cJSON_AddItemToArray(servos, servo_json(v, i, with_table));
+  }
+  if (with_robot && v->robot) {
+    cJSON_AddItemToObject(j, "robot", emu_robot_pose_json(v->robot));
   }
   return j;
 }

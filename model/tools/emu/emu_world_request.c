@@ -100,7 +100,9 @@ static void apply_world(servo_t *servo, const plant_options_t *o) {
   }
   ax12_plant_set_supply_v(&servo->plant, o->supply_v);
   ax12_plant_set_ambient_c(&servo->plant, o->ambient_c);
-  ax12_plant_set_load(&servo->plant, &o->load);
+  if (!servo->plant_on_joint) {
+    ax12_plant_set_load(&servo->plant, &o->load);
+  }
   servo_show_plant(servo);
 }
 
@@ -123,6 +125,13 @@ cJSON *emu_world_request(emu_servos_t *v, const cJSON *req, char *err, size_t er
   for (size_t i = 0; i < v->world->servo_count; i++) {
     changed[i] = v->worlds[i];
     if (selected[i] && set && !parse_world_changes(&changed[i], set, err, err_len)) {
+      free(changed);
+      return NULL;
+    }
+    const robot_binding_t *joint = emu_servo_joint(v, i);
+    if (selected[i] && joint && changed[i].load.kind != AX12_LOAD_NONE) {
+      snprintf(err, err_len, "servo %u is joint '%s' of the robot: its load is the robot (change the robot's world "
+               "with \"op\":\"robot\": payload, push, gravity)", v->slot_ids[i], joint->name);
       free(changed);
       return NULL;
     }

@@ -5,7 +5,7 @@
 
 #include "lab_experiments.h"
 
-/* Present Load against the position error under a load torque swept -2..+2 N m, for each
+/* Present Load against the position error under a load torque swept 0 -> +2 -> -2 -> 0 N m, for each
  * compliance slope. */
 int lab_compliance(const lab_options_t *o) {
   static const uint8_t slopes[] = {16, 32, 64, 128};

@@ -30,7 +30,7 @@ static const char usage_text[] =
     "protocol; CSV on stdout.\n"
     "  step         Present Position after a goal step 412 -> 612, compliance slopes\n"
     "               8, 16, 17, 32, 64, 128 (columns slope,t_ms,goal,position,speed,load)\n"
-    "  compliance   goal 512, margins 1, punch 32, a load torque swept -2..+2 N m; Present\n"
+    "  compliance   goal 512, margins 1, punch 32, a load torque swept 0..+2..-2..0 N m; Present\n"
     "               Load vs error for slopes 16, 32, 64, 128\n"
     "               (slope,t_ms,load_nm,goal,position,error,present_load)\n"
     "  speed-load   wheel mode at full drive against constant loads, supplies 7, 9.6, 10, 12 V\n"

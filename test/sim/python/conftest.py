@@ -22,9 +22,32 @@ FIRMWARE_DIR = os.environ.get("AX12_FIRMWARE_DIR", "")
 FIRMWARE_REQUIRED = os.environ.get("AX12_FIRMWARE_REQUIRED", "1") == "1"
 
 
+def world(*args):
+    """`scripts/ax12 world` with these arguments: its completed process."""
+    return subprocess.run([sys.executable, os.path.join(REPO, "scripts", "ax12_world.py")] + list(args),
+                          capture_output=True, text=True, timeout=30)
+
+
+def wait_for(predicate, timeout_s, what):
+    """predicate()'s first true value within timeout_s of wall time, polled every 50 ms."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(0.05)
+    pytest.fail("timed out waiting for " + what)
+
+
+def servo(status, slot):
+    """The servo of a control-socket status with that slot (its --ids entry)."""
+    return next(s for s in status["servos"] if s["slot"] == slot)
+
+
 class Emulator:
-    def __init__(self, args, timeout=20.0):
-        self.args = [EMU, "serve"] + list(args)
+    def __init__(self, args, timeout=20.0, emu_command=None):
+        """emu_command: the program and what runs it (["taskset", "-c", "0", EMU]); default EMU."""
+        self.args = list(emu_command or [EMU]) + ["serve"] + list(args)
         self.proc = subprocess.Popen(self.args, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         self.device = None
         line = b""

@@ -4,6 +4,8 @@
 clock in real time: the latency timer's delays against the model, whole replies for a client
 that parses whatever one read returns, the bauds the chips make, a flood, the figures of
 --stats, and bad option values."""
+import csv
+import math
 import os
 import random
 import re
@@ -104,9 +106,9 @@ def test_u2d2_16_hands_replies_over_when_its_latency_timer_expires(emulator, tmp
     delays, split = delays_ms(fd, 150, seed=18)
     os.close(fd)
     # As the client sees it (wall clock, with the host's own delays on top): up to 16 ms after
-    # the reply left the wire, uniformly: the model's distribution.
+    # the reply left the wire, uniformly: the model's distribution. Its tail is the host's (a
+    # busy machine wakes the client late), so the emulator's own part of it is checked below.
     assert delays[0] >= 0.15, delays[:5]
-    assert delays[int(0.98 * len(delays))] <= 16.0 + WIRE_AND_FRAME_MS + 3.0, delays[-5:]
     assert 6.0 <= statistics.median(delays) <= 12.0, statistics.median(delays)
     d = ks_uniform(delays, WIRE_AND_FRAME_MS, 16.0 + WIRE_AND_FRAME_MS)
     assert d < 0.2, (d, delays[::15])
@@ -119,6 +121,10 @@ def test_u2d2_16_hands_replies_over_when_its_latency_timer_expires(emulator, tmp
                   r"latency waits mean ([\d.]+) ms, max ([\d.]+) ms", err)
     assert m, err
     assert int(m.group(1)) >= 151 and 6.5 <= float(m.group(3)) <= 9.5 and float(m.group(4)) <= 16.0, err
+    # The emulator's own lateness in handing each packet to the pty (wall clock against the
+    # simulated time it stands for): 98 % of the replies on time within 3 ms.
+    late = re.search(r"hand-overs to the client late p50 ([\d.]+) / p99 ([\d.]+) / max ([\d.]+) ms over (\d+)", err)
+    assert late and int(late.group(4)) >= 150 and float(late.group(2)) <= 3.0, err
 
 
 def test_u2d2_1_hands_replies_over_within_about_a_millisecond(emulator, tmp_path):
@@ -141,21 +147,26 @@ def test_wire_hands_each_byte_over_as_it_leaves_the_wire(emulator, tmp_path):
     assert statistics.median(delays) <= 0.8, statistics.median(delays)
 
 
-def naive_failures(emu, count):
+def naive_reads(emu, count):
     """A client as a new user writes it: write the request, wait until something can be read,
-    read whatever is there and parse it as one packet. Returns the number that failed."""
+    read whatever is there and parse it as one packet. Returns, per request, whether that one
+    read held the whole reply."""
     fd = open_raw(emu.device)
     drain(fd, 0.2)
-    failures = 0
+    whole = []
     for _ in range(count):
         os.write(fd, READ_POSITION)
         data = os.read(fd, 256) if select.select([fd], [], [], 0.5)[0] else b""
         status = parse(data)
-        if not (len(data) == REPLY_LEN and status and status.checksum_ok and status.ident == 1):
-            failures += 1
+        whole.append(len(data) == REPLY_LEN and bool(status) and status.checksum_ok and status.ident == 1)
+        if not whole[-1]:
             drain(fd)
     os.close(fd)
-    return failures
+    return whole
+
+
+def naive_failures(emu, count):
+    return naive_reads(emu, count).count(False)
 
 
 @pytest.mark.parametrize("adapter", ["u2d2:16", "usb2dynamixel:16", "usb2dynamixel"])
@@ -164,19 +175,36 @@ def test_a_client_parsing_whatever_one_read_returns_gets_every_reply_whole(emula
     assert naive_failures(emu, 1000) == 0
 
 
-def test_at_u2d2_1_a_reply_rarely_straddles_a_timer_expiry(emulator, tmp_path):
-    # 1 ms latency in a tight loop: the reply ends ~0.8-1 ms after the previous hand-over,
-    # near the next expiry; one that straddles it comes in two packets: 0.3-0.5 % on a quiet
-    # machine, up to the 8 % of a random phase (80 us of 1 ms) when the host's delays scatter
-    # the requests. Never more: the rest arrive whole.
-    emu = emulator("--adapter", "u2d2:1", "--state-dir", str(tmp_path))
-    assert naive_failures(emu, 1000) <= 100
+def test_at_u2d2_1_a_reply_comes_in_two_packets_only_when_it_straddles_a_timer_expiry(emulator, tmp_path):
+    # 1 ms latency in a tight loop: the timer's 1 ms grid is in phase with the 125 us USB frames,
+    # so whether a reply straddles an expiry is up to the client alone: a request written 250-375
+    # us after the previous hand-over leaves in the frame 375 us after it, and its 8-byte reply
+    # (Return Delay Time 500 us) ends across the next expiry. How often that happens is how often
+    # the client reacts in that window: a few in a thousand on a quiet machine, a fifth of them
+    # and more on a busy one. Exact whatever the load: every reply the client got in two reads is
+    # one the bus log shows straddling an expiry (its first byte ending before it, its last at or
+    # after it). A straddling reply can still come in one read when the client reads late.
+    log = tmp_path / "bus.csv"
+    emu = emulator("--adapter", "u2d2:1", "--state-dir", str(tmp_path), "--log-bus", str(log))
+    whole = naive_reads(emu, 1000)
+    assert emu.stop() == 0
+    with open(log) as f:
+        replies = [row for row in csv.DictReader(f) if row["sender"] == "servo-1"]
+    assert len(replies) == len(whole), (len(replies), len(whole))
+
+    def straddles(row):  # a byte ending at t reaches the host at the first expiry after t
+        first_end_us, last_end_us = float(row["time_us"]) + 10.0, float(row["end_us"])
+        return math.floor(first_end_us / 1000.0) != math.floor(last_end_us / 1000.0)
+
+    split_without_straddle = [i for i, ok in enumerate(whole) if not ok and not straddles(replies[i])]
+    assert split_without_straddle == [], split_without_straddle
+    assert whole.count(False) <= sum(1 for row in replies if straddles(row))
 
 
 def test_the_bus_sees_the_baud_the_chip_makes(emulator, tmp_path):
     # A servo at 117647 baud (register 16); the client asks 115200: the FT232R makes
     # 3 MHz / 26 = 115385 (1.9 % off, inside the 3 % a UART takes), so the servo answers.
-    emu = emulator("--adapter", "usb2dynamixel", "--baud", "16", "--state-dir", str(tmp_path / "a"), "--stats")
+    emu = emulator("--adapter", "usb2dynamixel", "--baud-register", "16", "--state-dir", str(tmp_path / "a"), "--stats")
     fd = open_raw(emu.device, termios.B115200)
     _, _, reply = timed_request(fd, READ_POSITION, REPLY_LEN)
     assert parse(reply) and parse(reply).checksum_ok, reply.hex()

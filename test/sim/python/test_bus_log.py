@@ -7,6 +7,7 @@ Temperature is 70 where the AX-12's is 85 (docs/policy.md: the READ's answer dif
 1); a malformed log (exit 2, the line named)."""
 import csv
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -21,6 +22,10 @@ import dynamixel_sdk.port_handler as sdk_port
 import ax12_table as T
 from ax12_packets import instruction_packet, status_packet
 from conftest import EMU, FIRMWARE_DIR
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
+                                "support"))
+import doc_samples  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
 BUILD = os.environ.get("AX12_BUILD_DIR", os.path.join(REPO, "build"))
@@ -173,6 +178,7 @@ def test_a_logged_sdk_run_replays_the_same_and_shows_another_profile(emulator, t
     assert "READ ID 1" in report and "different" in report, report
     assert "expected FF FF 01 03 00 55" in report and "got FF FF 01 03 00 46" in report, report  # 85 vs 70
     assert "result: DIFFERENT: 1 difference in 1 of 8 exchanges" in report, report
+    doc_samples.check("replay-different", report.replace(str(log), "recording.csv"), replay_sample_line)
 
     # A log whose first answer was removed: the device's answer is an extra one, reported with
     # the PING, or with the READ sent 0.75 ms after it when it comes after that.
@@ -183,6 +189,39 @@ def test_a_logged_sdk_run_replays_the_same_and_shows_another_profile(emulator, t
     assert extra.returncode == 1, extra.stdout + extra.stderr
     assert "extra: expected nothing, got FF FF 01 02 00 FC" in extra.stdout, extra.stdout
     assert "result: DIFFERENT: 1 difference in 1 of 8 exchanges" in extra.stdout, extra.stdout
+
+
+def replay_sample_line(line):
+    """A line of a replay's report as compared with docs/emulator.md's: the pty's number and the
+    times (when each packet was sent and recorded) masked."""
+    line = re.sub(r"/dev/pts/\d+", "/dev/pts/N", line)
+    return re.sub(r"sent at \+[\d.]+ ms \(recorded \+[\d.]+ ms\)", "sent at +T ms (recorded +T ms)", line)
+
+
+def csv_sample_line(line):
+    """A bus log's row as docs/emulator.md shows it: its times (simulated us since the start,
+    which depend on when the client wrote) masked."""
+    return re.sub(r"^\d+\.\d{4},\d+\.\d{4},", "T,T,", line)
+
+
+def test_the_csv_example_of_the_docs_is_a_log_of_its_packets(emulator, tmp_path):
+    """docs/emulator.md's example: a PING and its answer, a READ of Present Speed with a wrong
+    checksum answered with Checksum Error."""
+    import serial
+    log = tmp_path / "example.csv"
+    emu = emulator("--fast", "--state-dir", str(tmp_path / "s"), "--log-bus", str(log))
+    with serial.Serial(emu.device, 1000000, timeout=0.5) as port:
+        assert transact_bytes(port, instruction_packet(1, T.INST_PING), 6) == status_packet(1, 0)
+        read = instruction_packet(1, T.INST_READ, [T.PRESENT_TEMPERATURE, 1])[:-1] + b"\x00"
+        assert transact_bytes(port, read, 6) == status_packet(1, T.ERR_CHECKSUM)
+    assert emu.stop() == 0
+    doc_samples.check("bus-log-example", log.read_text(), csv_sample_line)
+
+
+def transact_bytes(port, request, count):
+    port.reset_input_buffer()
+    port.write(request)
+    return port.read(count)
 
 
 def test_a_malformed_log_is_refused_naming_its_line(tmp_path):
@@ -230,6 +269,62 @@ def test_replay_aligns_the_answers_before_comparing_them():
         "answer 1: extra: expected nothing, got %s" % R.hexs(changed)]
     assert R.compare(ex, [changed, late], False, T, set()) == [
         "answer 1: different: expected %s, got %s" % (R.hexs(ok), R.hexs(changed))]
+
+
+def exchanges_of(R, requests, answers_after):
+    """Exchanges of these request packets, each with the answers recorded after it."""
+    exs = []
+    for k, (request, answers) in enumerate(zip(requests, answers_after)):
+        ex = R.Exchange(R.Row(k + 2, 80.0 * k, "client", "instruction", request), [])
+        ex.expected = list(answers)
+        exs.append(ex)
+    return exs
+
+
+def test_replay_compares_answers_regrouped_by_delivery_as_one_stream():
+    """Seven READs the pty delivered at once, all seven answers recorded after the last; the
+    replay got one after each: the same answers."""
+    R = load_replay()
+    reads = [instruction_packet(1, T.INST_READ, [T.MODEL_NUMBER + k, 1]) for k in range(7)]
+    answers = [status_packet(1, 0, [10 + k]) for k in range(7)]
+    bunched = exchanges_of(R, reads, [[]] * 6 + [answers])
+    assert R.compare_all(bunched, [[a] for a in answers], False, T, set()) == []
+    # ... and the other way round: recorded one after each, got all after the last.
+    spread = exchanges_of(R, reads, [[a] for a in answers])
+    assert R.compare_all(spread, [[]] * 6 + [answers], False, T, set()) == []
+
+
+def test_replay_still_finds_what_differs_in_a_regrouped_stream():
+    R = load_replay()
+    reads = [instruction_packet(1, T.INST_READ, [T.MODEL_NUMBER + k, 1]) for k in range(7)]
+    answers = [status_packet(1, 0, [10 + k]) for k in range(7)]
+    bunched = exchanges_of(R, reads, [[]] * 6 + [answers])
+    missing = [[a] for a in answers[:3]] + [[]] + [[a] for a in answers[4:]]
+    assert R.compare_all(bunched, missing, False, T, set()) == [
+        (6, ["answer 4: missing: expected %s, got nothing" % R.hexs(answers[3])])]
+    extra = status_packet(2, 0)
+    assert R.compare_all(bunched, [[a] for a in answers[:2]] + [[answers[2], extra]] + [[a] for a in answers[3:]],
+                         False, T, set()) == [(2, ["answer 2: extra: expected nothing, got %s" % R.hexs(extra)])]
+    changed = status_packet(1, 0, [99])
+    assert R.compare_all(bunched, [[a] for a in answers[:5]] + [[changed], [answers[6]]], False, T, set()) == [
+        (6, ["answer 6: different: expected %s, got %s" % (R.hexs(answers[5]), R.hexs(changed))])]
+
+
+def test_replay_reports_a_missing_answer_under_its_own_packet_when_the_others_are_in_place():
+    R = load_replay()
+    pings = [instruction_packet(1, T.INST_PING)] * 3
+    ok = status_packet(1, 0)
+    exs = exchanges_of(R, pings, [[ok]] * 3)
+    assert R.compare_all(exs, [[ok], [], [ok]], False, T, set()) == [
+        (1, ["answer 1: missing: expected %s, got nothing" % R.hexs(ok)])]
+
+
+def test_replay_takes_each_packet_in_the_window_its_first_byte_came_in():
+    R = load_replay()
+    a, b = status_packet(1, 0, [1]), status_packet(1, 0, [2])
+    stream = a + b
+    # b's first byte came after the second packet was sent, its last ones later still.
+    assert R.answers_by_window(stream, [0, len(a), len(a) + 2]) == [[a], [b], []]
 
 
 def test_replay_ignores_only_the_time_varying_bytes_of_read_answers():
@@ -313,3 +408,33 @@ def test_a_replay_on_a_deliberately_broken_firmware_build_reports_it(emulator, t
     differ = replay(log, broken.device)
     assert differ.returncode == 1, differ.stdout + differ.stderr
     assert "extra: expected nothing, got FF FF 01 03 00 01 FA" in differ.stdout, differ.stdout
+
+
+def test_a_recording_of_requests_delivered_at_once_replays_the_same_and_still_shows_a_difference(emulator, tmp_path):
+    """Seven READs written in one go: the pty hands them over together, the bus carries them back
+    to back and the log has all seven answers after the last. A replay sends them at the
+    recorded times, each then answered on its own: the same answers (SAME). Against the AX-12A,
+    whose Firmware Version (address 2) differs, the one READ of it differs (DIFFERENT)."""
+    import serial
+    log = tmp_path / "bunched.csv"
+    emu = emulator("--realtime", "--state-dir", str(tmp_path / "record"), "--log-bus", str(log))
+    reads = b"".join(instruction_packet(1, T.INST_READ, [address, 1]) for address in range(7))
+    with serial.Serial(emu.device, 1000000, timeout=0.5) as port:
+        port.write(reads)
+        got = b""
+        deadline = time.monotonic() + 2
+        while len(got) < 7 * 7 and time.monotonic() < deadline:
+            got += port.read(7 * 7 - len(got))
+    assert emu.stop() == 0
+    rows = rows_of(log)
+    assert [r["sender"] for r in rows] == ["client"] * 7 + ["servo-1"] * 7, "delivered at once, answered after"
+    assert len(got) == 49
+
+    for attempt in range(3):
+        same = replay(log, emulator("--realtime", "--state-dir", str(tmp_path / ("same%d" % attempt))).device)
+        if ": missing:" not in same.stdout:
+            break
+    assert same.returncode == 0 and "result: SAME" in same.stdout, same.stdout + same.stderr
+    other = replay(log, emulator("--realtime", "--profile", "ax12a", "--state-dir", str(tmp_path / "other")).device)
+    assert other.returncode == 1, other.stdout + other.stderr
+    assert "result: DIFFERENT: 1 difference in 1 of 7 exchanges" in other.stdout, other.stdout

@@ -2,9 +2,7 @@
 """The control socket of `ax12-emu serve` (docs/dashboard.md) and `scripts/ax12 world`, through
 the real path: the emulator running the firmware ELF, its socket, the command line, and
 DynamixelSDK on the pty at the same time."""
-import os
 import subprocess
-import sys
 import threading
 import time
 
@@ -14,9 +12,7 @@ import pytest
 import ax12_control
 import ax12_packets as P
 import ax12_table as T
-
-REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
-WORLD = [sys.executable, os.path.join(REPO, "scripts", "ax12_world.py")]
+from conftest import servo, wait_for, world
 
 
 def open_port(device):
@@ -24,24 +20,6 @@ def open_port(device):
     assert port.openPort()
     assert port.setBaudRate(1000000)
     return port, sdk.PacketHandler(1.0)
-
-
-def world(*args):
-    return subprocess.run(WORLD + list(args), capture_output=True, text=True, timeout=30)
-
-
-def wait_for(predicate, timeout_s, what):
-    deadline = time.monotonic() + timeout_s
-    while time.monotonic() < deadline:
-        value = predicate()
-        if value:
-            return value
-        time.sleep(0.05)
-    pytest.fail("timed out waiting for " + what)
-
-
-def servo(status, slot):
-    return next(s for s in status["servos"] if s["slot"] == slot)
 
 
 def test_status_reads_the_firmware_table_and_the_plant(emulator, tmp_path):

@@ -7,6 +7,8 @@ import re
 import shutil
 import socket
 import subprocess
+import sys
+import threading
 import time
 
 import pytest
@@ -17,6 +19,10 @@ import ax12_table as T
 from ax12_packets import instruction_packet as packet, status_packet
 from ax12_servo_port import transact
 from conftest import EMU, FIRMWARE_DIR
+
+REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))))
+sys.path.insert(0, os.path.join(REPO, "test", "support"))
+import doc_samples  # noqa: E402
 
 UNITS_PER_CYCLE = 625            # the VCD's timescale is 100 ps; a 16 MHz cycle is 62.5 ns
 UNITS_PER_US = 16 * UNITS_PER_CYCLE
@@ -313,3 +319,65 @@ def test_sigterm_while_gdb_holds_the_bus_stops_cleanly(emulator, tmp_path):
         held.kill()
         held.wait()
     assert (tmp_path / "state" / "servo-2.eeprom").stat().st_size == 512
+
+
+def gdb_session_line(line):
+    """A line of the documented gdb session as compared: the notes after `<-` dropped, the
+    repository's path, the addresses, registers and counts of one build and moment masked."""
+    line = re.sub(r"\s+<- .*$", "", line).replace(REPO + "/", "")
+    # Where the servo was: attaching, and where the watched write happened.
+    line = re.sub(r"^(0x[0-9a-f]{8} in )?[\w.]+ \(.*\) at \S+:\d+$", "LOCATION", line)
+    line = re.sub(r"^\d+\t.*$", "SOURCE LINE", line)
+    line = re.sub(r"0x[0-9a-f]{8}", "ADDR", line)
+    line = re.sub(r"^Breakpoint (\d+) at 0x[0-9a-f]+$", r"Breakpoint \1 at ADDR", line)
+    line = re.sub(r"^(pc|SP|SREG|r24)\s+.*$", r"\1 VALUE", line)
+    line = re.sub(r"^(Old|New) value = .*$", r"\1 value = VALUE", line)
+    return re.sub(r"^\$4 = \d+$", "$4 = COUNT", line)
+
+
+def test_the_documented_gdb_session_runs_as_docs_debugging_md_shows(emulator, tmp_path):
+    """docs/debugging.md's session, its `(gdb)` commands taken from the doc and run in avr-gdb
+    against `serve --ids 1,2 --mcu atmega328p --gdb 1` while a client writes Goal Position now and
+    then (so that the watchpoint fires): every command succeeds and prints what the doc shows."""
+    gdb = avr_gdb()
+    port = free_port()
+    link = tmp_path / "ax12"
+    emu = emulator("--ids", "1,2", "--mcu", "atmega328p", "--state-dir", str(tmp_path / "state"), "--link",
+                   str(link), "--gdb", f"1:{port}")
+    _, _, sample = doc_samples.samples()["gdb-session"]
+    elf_line, commands = sample[0], [re.sub(r"\s+<- .*$", "", line)[len("(gdb) "):] for line in sample
+                                     if line.startswith("(gdb) ")]
+    assert elf_line.startswith("$ avr-gdb build/firmware/") and commands[0] == "target remote :1234", sample[:2]
+    elf = os.path.join(FIRMWARE_DIR, os.path.basename(elf_line.split()[-1]))
+    args = [gdb, "-batch", "-nx"]
+    for command in commands:
+        args += ["-ex", "echo (gdb) %s\\n" % command, "-ex", command.replace(":1234", ":%d" % port)]
+    done = threading.Event()
+
+    def client():
+        """Goal Position changes every 0.3 s from when gdb stopped servo 1 the fourth time (the
+        breakpoint after `stepi`: the table was shown with its power-up goal), the bus willing."""
+        holds = 0
+        while holds < 4:
+            line = emu.proc.stderr.readline().decode()
+            if not line:
+                return
+            holds += "gdb holds servo-1" in line
+        goal = 600
+        with serial.Serial(str(link), 1000000, timeout=0.2) as bus:
+            while not done.is_set():
+                bus.write(packet(1, T.INST_WRITE, [T.GOAL_POSITION, goal & 0xFF, goal >> 8]))
+                bus.read(6)
+                goal = 1300 - goal
+                time.sleep(0.3)
+    writer = threading.Thread(target=client, daemon=True)
+    writer.start()
+    try:
+        out = subprocess.run(args + [elf], capture_output=True, text=True, timeout=120)
+    finally:
+        done.set()
+        writer.join(timeout=5)
+    assert out.returncode == 0, out.stdout + out.stderr
+    for trouble in ("doesn't know", "corrupt stack", "Num pushes", "Cannot", "rror"):
+        assert trouble not in out.stdout + out.stderr, out.stdout + out.stderr
+    doc_samples.check("gdb-session", elf_line + "\n" + out.stdout, gdb_session_line)

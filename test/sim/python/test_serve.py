@@ -109,12 +109,15 @@ def rdt_writes_logged(log_path):
     """From a --log-bus CSV cut by a SIGKILL: the simulated end (us) of each Return Delay Time
     WRITE's reply, in order, and the simulated time of the last row logged."""
     import csv
+    import io
     with open(log_path, newline="") as f:
-        rows = list(csv.DictReader(f))
+        text = f.read()
+    # Only whole lines: the kill can cut the last one anywhere, even inside a number.
+    whole = text[: text.rfind("\n") + 1]
     replies, last_us, waiting = [], 0.0, False
-    for row in rows:
+    for row in csv.DictReader(io.StringIO(whole)):
         if not row["end_us"] or row["params"] is None:
-            break  # a row cut by the kill (anywhere: its fields from the cut on are missing)
+            break  # a malformed row (a whole line with fields missing): the log ends there
         last_us = float(row["end_us"])
         params = row["params"].split()
         if row["sender"] == "client":
@@ -193,10 +196,14 @@ def test_every_listed_id_is_its_own_servo(emulator, tmp_path):
         f"servo-{i}.eeprom.lock" for i in (1, 2, 3, 7, 10))
 
 
-def test_fresh_servos_start_at_the_baud_asked_for(emulator, tmp_path):
-    emu = emulator("--fast", "--baud", "34", "--state-dir", str(tmp_path))
+@pytest.mark.parametrize("option", [["--baud", "57600"], ["--baud-register", "34"]])
+def test_fresh_servos_start_at_the_baud_asked_for(emulator, tmp_path, option):
+    """--baud in bit/s as a client sets it (57600: register 34, 57143 bit/s, 0.8 % off), or the
+    Baud Rate register's value itself."""
+    emu = emulator("--fast", *option, "--state-dir", str(tmp_path))
     with serial.Serial(emu.device, 57600, timeout=0.5) as port:
         assert transact(port, packet(1, T.INST_PING), 6) == PING_REPLY[1]
+        assert transact(port, packet(1, T.INST_READ, [T.BAUD_RATE, 1]), 7)[5] == 34
     with serial.Serial(emu.device, 1000000, timeout=0.2) as port:
         assert transact(port, packet(1, T.INST_PING), 6, timeout_s=0.2) != PING_REPLY[1]
 
@@ -226,7 +233,12 @@ def test_help_exits_zero():
     (["--ids", "1,x"], "x"),
     (["--ids", "254"], "254"),
     (["--bogus"], "--bogus"),
-    (["--baud", "255"], "255"),
+    (["--baud", "255"], "--baud '255'"),
+    (["--baud", "1"], "--baud '1'"),
+    (["--baud", "3000000"], "--baud '3000000'"),
+    (["--baud", "fast"], "--baud 'fast'"),
+    (["--baud-register", "255"], "--baud-register '255'"),
+    (["--baud", "57600", "--baud-register", "34"], "--baud and --baud-register"),
     (["--profile", "ax18"], "ax18"),
     (["--mcu", "attiny85"], "attiny85"),
     (["--elf", "/nonexistent/fw.elf"], "/nonexistent/fw.elf"),
@@ -248,6 +260,7 @@ def test_bad_input_gives_one_line_naming_the_problem(args, names, tmp_path):
     lines = out.stderr.splitlines()
     assert len(lines) == 1, out.stderr
     assert names in lines[0], lines[0]
+    assert lines[0].endswith("(see scripts/ax12 serve --help)") or "--elf" in args or "--state-dir" in args, lines[0]
     assert time.monotonic() - started < 10
 
 
@@ -329,3 +342,68 @@ def test_a_second_emulator_on_a_servo_in_use_is_refused_naming_the_first(emulato
     again = emulator("--state-dir", str(state), "--ids", "2")
     with serial.Serial(again.device, 1000000, timeout=1.0) as port:
         assert transact(port, packet(2, T.INST_PING), 6) == PING_REPLY[2]
+
+
+def start_up_lines(emu):
+    """The emulator's stderr up to its start-up line (the one naming the servos and the pty)."""
+    lines = []
+    while not lines or " on /dev/pts/" not in lines[-1]:
+        line = emu.proc.stderr.readline().decode()
+        assert line, "stderr ended before the start-up line: %r" % lines
+        lines.append(line.rstrip("\n"))
+    return lines
+
+
+def test_a_clean_stop_removes_the_lock_files(emulator, tmp_path):
+    emu = emulator("--fast", "--ids", "1,2", "--state-dir", str(tmp_path))
+    assert sorted(p.name for p in tmp_path.glob("*.lock")) == ["servo-1.eeprom.lock", "servo-2.eeprom.lock"]
+    assert emu.stop() == 0
+    assert list(tmp_path.glob("*.lock")) == []
+    assert sorted(p.name for p in tmp_path.glob("*.eeprom")) == ["servo-1.eeprom", "servo-2.eeprom"]
+    again = emulator("--fast", "--ids", "1,2", "--state-dir", str(tmp_path))  # and the next one runs
+    with serial.Serial(again.device, 1000000, timeout=1.0) as port:
+        assert transact(port, packet(2, T.INST_PING), 6) == PING_REPLY[2]
+
+
+def test_the_start_up_line_names_a_servo_whose_saved_id_or_baud_is_not_its_slots(emulator, tmp_path):
+    emu = emulator("--fast", "--ids", "1,2", "--state-dir", str(tmp_path))
+    assert "answers at" not in start_up_lines(emu)[-1]
+    with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
+        port.write(packet(1, T.INST_WRITE, [T.ID, 7]))
+        time.sleep(0.2)
+        port.write(packet(2, T.INST_WRITE, [T.BAUD_RATE, 34]))
+        time.sleep(0.2)
+    assert emu.stop() == 0
+    emu = emulator("--fast", "--ids", "1,2", "--state-dir", str(tmp_path))
+    line = start_up_lines(emu)[-1]
+    assert line.endswith("; slot 1 answers at ID 7, slot 2 answers at 57143 bit/s (saved settings)"), line
+    with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
+        assert transact(port, packet(7, T.INST_PING), 6) == PING_REPLY[7]
+
+
+def test_settings_cut_in_their_store_are_named_once_at_start_and_the_older_ones_boot(emulator, tmp_path):
+    """A state file whose newer settings slot fails its check (here: one byte of the slot a WRITE
+    stored into changed, as a store cut by a power loss leaves it): one warning at start naming
+    the servo, the file and what it means; the servo boots the settings stored before."""
+    emu = emulator("--fast", "--ids", "3", "--state-dir", str(tmp_path))
+    assert emu.stop() == 0
+    path = tmp_path / "servo-3.eeprom"
+    before = path.read_bytes()
+    emu = emulator("--fast", "--ids", "3", "--state-dir", str(tmp_path))
+    with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
+        assert transact(port, packet(3, T.INST_WRITE, [T.RETURN_DELAY_TIME, 37]), 6) == PING_REPLY[3]
+    assert emu.stop() == 0
+    after = bytearray(path.read_bytes())
+    stored = [i for i in range(len(after)) if after[i] != before[i]]
+    assert stored, "the write reached the state file"
+    after[stored[0]] ^= 0x40  # the slot written last no longer passes its check
+    path.write_bytes(bytes(after))
+    emu = emulator("--fast", "--ids", "3", "--state-dir", str(tmp_path))
+    lines = start_up_lines(emu)
+    warnings = [line for line in lines if "fail their check" in line]
+    assert warnings == ["ax12-emu: warning: servo 3: the newer settings in %s fail their check (a store cut by a "
+                        "power loss or a kill, or a damaged file): it boots the settings stored before them" % path], lines
+    with serial.Serial(emu.device, 1000000, timeout=1.0) as port:
+        assert read_byte(port, 3, T.RETURN_DELAY_TIME) == 250
+    assert emu.stop() == 0
+    assert not (tmp_path / "servo-3.eeprom.invalid-1").exists(), "a valid image is not set aside"
