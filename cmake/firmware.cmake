@@ -11,13 +11,14 @@
 #   AX12_FIRMWARE_ELFS                  all four paths
 #   AX12_FIRMWARE_HEX_<profile>_<mcu>   its flash image in Intel HEX, beside it
 #                                       (ax12-<profile>-<mcu>.hex, firmware/hex.cmake)
-#   AX12_FIRMWARE_BOOT_MCUS             the parts with a bootloader (atmega328p)
+#   AX12_FIRMWARE_BOOT_MCUS             the parts the bootloader is built for (both)
 #   AX12_FIRMWARE_BOOT_ELF_<mcu>, AX12_FIRMWARE_BOOT_HEX_<mcu>
 #                                       its ELF and HEX (ax12-boot-<mcu>.elf/.hex)
-#   AX12_FIRMWARE_MERGED_HEX_<profile>_atmega328p
-#                                       the whole flash of a new board: application, its
-#                                       record page and the bootloader
-#                                       (ax12-<profile>-atmega328p-merged.hex)
+#   AX12_FIRMWARE_BOOTABLE_MCUS         the parts whose applications sit beside it
+#   AX12_FIRMWARE_MERGED_HEX_<profile>_<mcu>
+#                                       for those: the whole flash of a new board,
+#                                       application, its record and the bootloader
+#                                       (ax12-<profile>-<mcu>-merged.hex)
 #   target firmware                     builds all four (part of ALL); add_dependencies() on it
 #   targets firmware-<profile>-<mcu>    one each
 #   target firmware-merged-hex          the merged HEX files (part of firmware)
@@ -41,15 +42,24 @@ set(AX12_FIRMWARE_PROFILES ax12 ax12a)
 set(AX12_FIRMWARE_ELFS "")
 
 add_custom_target(firmware ALL COMMENT "AVR firmware: ${AX12_FIRMWARE_DIR}")
-# Parts that carry the bootloader (docs/bootloader.md); built once, in the ax12 profile's project.
-set(AX12_FIRMWARE_BOOT_MCUS atmega328p)
+# The bootloader (docs/bootloader.md) is built for both parts, once, in the ax12 profile's
+# project. The applications sit beside it on the parts of firmware/bootable_mcus.cmake.
+set(AX12_FIRMWARE_BOOT_MCUS atmega88 atmega328p)
+include(${ax12_repo_dir}/firmware/bootable_mcus.cmake)
+set(AX12_FIRMWARE_BOOTABLE_MCUS ${AX12_BOOTABLE_MCUS})
 foreach(mcu ${AX12_FIRMWARE_MCUS})
   foreach(profile ${AX12_FIRMWARE_PROFILES})
     set(elf ${AX12_FIRMWARE_DIR}/ax12-${profile}-${mcu}.elf)
-    set(boot_args "")
+    # Said on every configure (not left to the option's default), so that a build folder made
+    # before a part joined AX12_BOOTABLE_MCUS follows it.
+    if(mcu IN_LIST AX12_FIRMWARE_BOOTABLE_MCUS)
+      set(boot_args -DAX12_FIRMWARE_WITH_BOOTLOADER=ON)
+    else()
+      set(boot_args -DAX12_FIRMWARE_WITH_BOOTLOADER=OFF)
+    endif()
     set(boot_products "")
     if(profile STREQUAL "ax12" AND mcu IN_LIST AX12_FIRMWARE_BOOT_MCUS)
-      set(boot_args -DAX12_FIRMWARE_BOOTLOADER=ON)
+      list(APPEND boot_args -DAX12_FIRMWARE_BOOTLOADER=ON)
       set(AX12_FIRMWARE_BOOT_ELF_${mcu} ${AX12_FIRMWARE_DIR}/ax12-boot-${mcu}.elf)
       set(AX12_FIRMWARE_BOOT_HEX_${mcu} ${AX12_FIRMWARE_DIR}/ax12-boot-${mcu}.hex)
       set(boot_products ${AX12_FIRMWARE_BOOT_ELF_${mcu}} ${AX12_FIRMWARE_BOOT_HEX_${mcu}})
@@ -72,20 +82,22 @@ foreach(mcu ${AX12_FIRMWARE_MCUS})
   endforeach()
 endforeach()
 
-# The merged HEX of each ATmega328P application (docs/bootloader.md "Flash layout"), by
-# scripts/ax12_merge_hex.py with the project's Python (scripts/setup's .venv: intelhex). Run
-# on every build after the ATmega328P sub-builds (one of which writes the bootloader's HEX);
-# it rewrites a merged HEX only when its bytes change, and writes none while the bootloader's
-# HEX does not exist.
+# The merged HEX of each application that sits beside the bootloader (docs/bootloader.md
+# "Flash layout"), by scripts/ax12_merge_hex.py with the project's Python (scripts/setup's
+# .venv: intelhex). Run on every build after the sub-builds (one per part writes the
+# bootloader's HEX); it rewrites a merged HEX only when its bytes change, and writes none while
+# the bootloader's HEX does not exist.
 set(ax12_python ${ax12_repo_dir}/.venv/bin/python)
-add_custom_target(firmware-merged-hex COMMENT "merged HEX: application + record + bootloader (ATmega328P)")
-foreach(profile ${AX12_FIRMWARE_PROFILES})
-  set(AX12_FIRMWARE_MERGED_HEX_${profile}_atmega328p ${AX12_FIRMWARE_DIR}/ax12-${profile}-atmega328p-merged.hex)
-  add_custom_command(TARGET firmware-merged-hex POST_BUILD
-    COMMAND ${ax12_python} ${ax12_repo_dir}/scripts/ax12_merge_hex.py --mcu atmega328p
-            ${AX12_FIRMWARE_HEX_${profile}_atmega328p} ${AX12_FIRMWARE_BOOT_HEX_atmega328p}
-            ${AX12_FIRMWARE_MERGED_HEX_${profile}_atmega328p}
-    VERBATIM)
-  add_dependencies(firmware-merged-hex firmware-${profile}-atmega328p)
+add_custom_target(firmware-merged-hex COMMENT "merged HEX: application + record + bootloader")
+foreach(mcu ${AX12_FIRMWARE_BOOTABLE_MCUS})
+  foreach(profile ${AX12_FIRMWARE_PROFILES})
+    set(AX12_FIRMWARE_MERGED_HEX_${profile}_${mcu} ${AX12_FIRMWARE_DIR}/ax12-${profile}-${mcu}-merged.hex)
+    add_custom_command(TARGET firmware-merged-hex POST_BUILD
+      COMMAND ${ax12_python} ${ax12_repo_dir}/scripts/ax12_merge_hex.py --mcu ${mcu}
+              ${AX12_FIRMWARE_HEX_${profile}_${mcu}} ${AX12_FIRMWARE_BOOT_HEX_${mcu}}
+              ${AX12_FIRMWARE_MERGED_HEX_${profile}_${mcu}}
+      VERBATIM)
+    add_dependencies(firmware-merged-hex firmware-${profile}-${mcu} firmware-ax12-${mcu})
+  endforeach()
 endforeach()
 add_dependencies(firmware firmware-merged-hex)

@@ -4,20 +4,22 @@ Intel HEX file read into the bytes from address 0, checked against the target pa
 flash pages, and its application record.
 
 - load(path) reads a HEX file (intelhex) or raises ImageError with a message naming the file;
-- image.check_target(mcu, app_area_bytes, page_bytes) refuses an image built for another
-  part or too large for the application area less its record page;
+- load(path) reads a HEX file (intelhex) or raises ImageError with a message naming the file;
+- image.check_target(mcu) refuses an image built for another part or too large for the
+  application area less the record;
 - image.check_flashable() refuses, before any servo is asked anything, an image no servo's
-  bootloader takes: not an application, for a part without a bootloader, or too large for its
-  part's application area (a merged HEX with the bootloader in it, say);
-- area_text(app_area_bytes, page_bytes) names the application area and its parts, the one
-  wording of every message about it;
-- image.pages(page_bytes) are the (address, bytes) to write, the last one padded with 0xFF;
-- record_page(length, crc, page_bytes) is the record page, as firmware/boot/boot_image.c
-  builds it;
-- merged_hex(image, boot_hex, mcu) is what a new board's flash holds: application, record
-  page and bootloader (the build writes it: scripts/ax12_merge_hex.py).
+  bootloader takes: not an application, or too large for its part's application area (a
+  merged HEX with the bootloader in it, say);
+- area_text(mcu) names the part's application area and its parts, the one wording of every
+  message about it;
+- image.update_pages(mcu) are the (address, bytes) pages of an update in the order they are
+  written: the record's page first with the record erased, the image's other pages, the
+  record's page last with the record;
+- record(length, check) is the record, as firmware/boot/boot_image.c builds it;
+- merged_hex(image, boot_hex, mcu) is what a new board's flash holds: application, record and
+  bootloader (the build writes it: scripts/ax12_merge_hex.py).
 
-Part facts (signature, page size, the limits) come from python/ax12_fuses.py's MCUS.
+Part facts (signature, page size, the boot section) come from python/ax12_fuses.py's MCUS.
 """
 
 from dataclasses import dataclass
@@ -26,8 +28,6 @@ from intelhex import IntelHex, IntelHexError
 
 import ax12_fuses
 
-RECORD_MAGIC = b"AXAP"
-CRC_INITIAL = 0xFFFF
 ERASED = 0xFF
 VECTORS = 26  # interrupt vectors of both parts (reset included)
 
@@ -36,36 +36,28 @@ class ImageError(Exception):
     """A file that cannot be flashed, or not to this part; the message says why."""
 
 
-def crc16(data, crc=CRC_INITIAL):
-    """CRC-16/CCITT-FALSE (polynomial 0x1021, no reflection, no final XOR) of data, continued
-    from crc: the firmware's dxl_crc16_update. crc16(b"123456789") == 0x29B1."""
+def check_value(data, check=0):
+    """The bootloader's check value of data, continued from check: Fletcher-16 modulo 256,
+    sum1 in the low byte, sum2 in the high byte (firmware/boot/boot_image.c)."""
+    sum1, sum2 = check & 0xFF, check >> 8
     for byte in data:
-        crc ^= byte << 8
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x1021) if crc & 0x8000 else (crc << 1)
-            crc &= 0xFFFF
-    return crc
+        sum1 = (sum1 + byte) & 0xFF
+        sum2 = (sum2 + sum1) & 0xFF
+    return sum1 | (sum2 << 8)
 
 
-def record_page(length, crc, page_bytes):
-    """The record page of an image of length bytes with this CRC: "AXAP", length and CRC
-    (16 bits each, little-endian), the rest 0xFF."""
-    record = RECORD_MAGIC + length.to_bytes(2, "little") + crc.to_bytes(2, "little")
-    return record + bytes([ERASED]) * (page_bytes - len(record))
+def record(length, check):
+    """The application record of an image of length bytes with this check value: the address
+    of its last byte and the check value, 16 bits each, little-endian."""
+    return (length - 1).to_bytes(2, "little") + check.to_bytes(2, "little")
 
 
-def part_application_area(mcu):
-    """(application area bytes, page bytes) of a part with a bootloader, from its facts
-    (ax12_fuses.MCUS): the flash below the boot section, the record page included."""
+def area_text(mcu):
+    """The part's application area (the flash below the boot section, ax12_fuses.MCUS) as every
+    message names it: the image's part and the record's."""
     part = ax12_fuses.MCUS[mcu]
-    return part.flash_bytes - part.boot_section_bytes, part.page_bytes
-
-
-def area_text(app_area_bytes, page_bytes):
-    """The application area as every message names it: the image's part and the record's."""
-    record_at = app_area_bytes - page_bytes
-    return (f"application area 0x0000-0x{app_area_bytes - 1:04X}: the image 0x0000-0x{record_at - 1:04X} "
-            f"({record_at} B at most), its record 0x{record_at:04X}-0x{app_area_bytes - 1:04X}")
+    return (f"application area 0x0000-0x{part.boot_start - 1:04X}: the image 0x0000-0x{part.record_at - 1:04X} "
+            f"({part.record_at} B at most), its record 0x{part.record_at:04X}-0x{part.boot_start - 1:04X}")
 
 
 def _words(data, count):
@@ -107,54 +99,63 @@ class AppImage:
     data: bytes  # from address 0 to the last byte the file gives; gaps 0xFF
 
     @property
-    def crc(self):
-        return crc16(self.data)
+    def check(self):
+        return check_value(self.data)
 
     @property
     def built_for(self):
         """The part its vector table is for (vector_table_mcu), or None."""
         return vector_table_mcu(self.data)
 
-    def check_target(self, mcu, app_area_bytes, page_bytes):
-        """Raises ImageError unless the image is for mcu (its vector table) and fits the
-        application area (app_area_bytes, the record page included) less the record page."""
+    def check_target(self, mcu):
+        """Raises ImageError unless the image is for mcu (its vector table) and ends below the
+        application record (the application area less the record)."""
         built_for = self.built_for
         if built_for is None:
             raise ImageError(self._not_an_application())
         if built_for != mcu:
             raise ImageError(f"{self.path} is built for the {built_for}, the servo is an {mcu}")
-        limit = app_area_bytes - page_bytes
+        limit = ax12_fuses.MCUS[mcu].record_at
         if len(self.data) > limit:
             merged = (" (it reaches into the boot section: a HEX with the bootloader in it is for "
                       "`scripts/ax12 flash-isp`; `flash` takes the application alone, "
-                      "ax12-<profile>-<mcu>.hex)" if len(self.data) > app_area_bytes else "")
+                      "ax12-<profile>-<mcu>.hex)" if len(self.data) > ax12_fuses.MCUS[mcu].boot_start else "")
             raise ImageError(f"{self.path} is {len(self.data)} B, more than the {mcu}'s "
-                             f"{area_text(app_area_bytes, page_bytes)}{merged}")
+                             f"{area_text(mcu)}{merged}")
 
     def check_flashable(self):
-        """Raises ImageError unless some servo's bootloader could take the image: an
-        application's vector table, for a part with a bootloader (ax12_fuses.BOOTLOADER_MCUS),
-        fitting that part's application area. Checked before a servo is asked into its
-        bootloader, so a refused file never leaves one there."""
+        """Raises ImageError unless its own part's bootloader could take the image: an
+        application's vector table, fitting that part's application area less the record.
+        Checked before a servo is asked into its bootloader, so a refused file never leaves one
+        there."""
         built_for = self.built_for
         if built_for is None:
             raise ImageError(self._not_an_application())
-        if built_for not in ax12_fuses.BOOTLOADER_MCUS:
-            raise ImageError(f"{self.path} is built for the {built_for}, which has no bootloader: "
-                             f"no servo takes it over the bus (write it over ISP: `scripts/ax12 flash-isp`)")
-        self.check_target(built_for, *part_application_area(built_for))
+        self.check_target(built_for)
 
     def _not_an_application(self):
         return (f"{self.path}: its first bytes are not an AVR vector table "
                 f"(26 JMP or RJMP instructions): not an Open AX-12 application")
 
-    def pages(self, page_bytes):
-        """[(address, page_bytes bytes)] covering the image, the last padded with 0xFF."""
-        padded = self.data + bytes([ERASED]) * (-len(self.data) % page_bytes)
-        return [(address, padded[address:address + page_bytes]) for address in range(0, len(padded), page_bytes)]
+    def flash_bytes(self, mcu, with_record=True):
+        """The application area as the update leaves it where it writes: the image, 0xFF up
+        to the record, the record (or 0xFF for it)."""
+        part = ax12_fuses.MCUS[mcu]
+        tail = record(len(self.data), self.check) if with_record else bytes([ERASED]) * ax12_fuses.RECORD_BYTES
+        return self.data + bytes([ERASED]) * (part.record_at - len(self.data)) + tail
 
-    def record_page(self, page_bytes):
-        return record_page(len(self.data), self.crc, page_bytes)
+    def update_pages(self, mcu):
+        """[(address, page bytes)] of an update, in order: the record's page with the record
+        erased (from there on the application is not valid), every other page that holds
+        image bytes, the record's page with the record (written last: from there on it is)."""
+        part = ax12_fuses.MCUS[mcu]
+        page = part.page_bytes
+        record_page = part.record_at - part.record_at % page
+        without, whole = self.flash_bytes(mcu, with_record=False), self.flash_bytes(mcu)
+        middle = [(address, whole[address:address + page]) for address in range(0, len(self.data), page)
+                  if address != record_page]
+        return ([(record_page, without[record_page:record_page + page])] + middle
+                + [(record_page, whole[record_page:record_page + page])])
 
 
 def load(path):
@@ -186,22 +187,21 @@ def load(path):
 
 
 def merged_hex(image, boot_hex_path, mcu):
-    """An IntelHex of the whole flash a new board gets: the image at 0, its record page at the
-    top of the application area and the bootloader's HEX in the boot section. Raises
-    ImageError when the image does not fit or is for another part, or when the bootloader's
-    HEX holds bytes outside the boot section."""
+    """An IntelHex of the whole flash a new board gets: the image at 0, its record below the
+    boot section and the bootloader's HEX in the boot section. Raises ImageError when the
+    image does not fit or is for another part, or when the bootloader's HEX holds bytes
+    outside the boot section."""
     part = ax12_fuses.MCUS[mcu]
-    boot_start, _ = part_application_area(mcu)
-    image.check_target(mcu, boot_start, part.page_bytes)
+    image.check_target(mcu)
     try:
         boot = IntelHex(boot_hex_path)
     except (IntelHexError, ValueError, OSError) as error:
         raise ImageError(f"{boot_hex_path} is not an Intel HEX file ({error})")
-    if len(boot) == 0 or boot.minaddr() < boot_start or boot.maxaddr() >= part.flash_bytes:
+    if len(boot) == 0 or boot.minaddr() < part.boot_start or boot.maxaddr() >= part.flash_bytes:
         raise ImageError(f"{boot_hex_path}: the bootloader's bytes must lie in the boot section "
-                         f"0x{boot_start:04X}-0x{part.flash_bytes - 1:04X}")
+                         f"0x{part.boot_start:04X}-0x{part.flash_bytes - 1:04X}")
     merged = IntelHex()
     merged.frombytes(image.data, offset=0)
-    merged.frombytes(image.record_page(part.page_bytes), offset=boot_start - part.page_bytes)
+    merged.frombytes(record(len(image.data), image.check), offset=part.record_at)
     merged.merge(boot, overlap="error")
     return merged

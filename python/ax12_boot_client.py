@@ -7,6 +7,7 @@ Every method sends one request (again on a lost or garbled answer, up to `retrie
 where repeating it is harmless) and returns the answer's parameters, or raises BootError with a
 message naming the servo and the step.
 """
+import time
 from collections import namedtuple
 
 from ax12_servo_port import BadChecksum, NoAnswer
@@ -14,23 +15,27 @@ from ax12_table import (BOOTLOADER_KEY_0, BOOTLOADER_KEY_1, BOOTLOADER_KEY_2, BO
                         FIRMWARE_VERSION, INST_BOOTLOADER as BOOT, INST_PING as PING, INST_READ as READ_DATA,
                         MODEL_NUMBER)
 
-INFO, BEGIN, PAGE, END, READ, GO = 0x20, 0x21, 0x22, 0x23, 0x24, 0x25
+INFO, PAGE, READ, GO = 0x20, 0x22, 0x24, 0x25
 BOOT_PARAMS = bytes([BOOTLOADER_KEY_0, BOOTLOADER_KEY_1, BOOTLOADER_KEY_2, BOOTLOADER_KEY_3])  # "BOOT"
 # The application's Model Number (2 bytes) and Firmware Version, read at once.
 IDENTITY_ADDRESS = MODEL_NUMBER
 IDENTITY_BYTES = FIRMWARE_VERSION + BY_ADDR[FIRMWARE_VERSION].size - MODEL_NUMBER
-INFO_MAGIC = b"AXBL"
+# The bootloader's version whose layout and packets these are (docs/bootloader.md).
+VERSION = 2
 
-ERR_INSTRUCTION, ERR_CRC, ERR_RANGE, ERR_READ_BACK = 0x40, 0x10, 0x08, 0x20
-ERROR_NAMES = {ERR_INSTRUCTION: "unknown instruction or wrong parameter count",
-               ERR_CRC: "CRC does not match", ERR_RANGE: "address or length outside the application area",
-               ERR_READ_BACK: "the page did not read back as written"}
+ERR_INSTRUCTION, ERR_RANGE, ERR_READ_BACK = 0x40, 0x08, 0x20
+ERROR_NAMES = {ERR_INSTRUCTION: "unknown instruction or wrong length",
+               ERR_RANGE: "address outside the application area",
+               ERR_READ_BACK: "the page did not read back as sent"}
 
-STATE_APP_VALID, STATE_ON_REQUEST, STATE_ON_HASH = 0x01, 0x02, 0x04
+# Sent before a request goes again after a lost answer: no header in them, and one more than a
+# packet's longest rest (LENGTH 255), so they end any packet the bootloader's framing took up
+# from bytes of a cut one, whether or not its 100 ms gap has passed in the servo's time
+# (docs/bootloader.md "Packets").
+FLUSH = bytes(256)
 
-# The INFO answer (docs/bootloader.md): version, signature, page size, application area in
-# bytes (record page included), state bits.
-BootInfo = namedtuple("BootInfo", "version signature page_bytes app_area_bytes state")
+# The INFO answer (docs/bootloader.md): the bootloader's version and the MCU's signature.
+BootInfo = namedtuple("BootInfo", "version signature")
 
 
 class BootError(Exception):
@@ -41,13 +46,12 @@ def error_text(error):
     return ", ".join(name for bit, name in ERROR_NAMES.items() if error & bit) or f"error bits 0x{error:02X}"
 
 
-def parse_info(params):
-    """The BootInfo of an INFO answer's parameters, or None when they are not a bootloader's."""
-    params = bytes(params)
-    if len(params) != 13 or params[:4] != INFO_MAGIC:
+def parse_info(answer):
+    """The BootInfo of an answer to INFO, or None when it is not a bootloader's (an
+    application answers Instruction Error with no parameters)."""
+    if answer is None or answer.code or len(answer.params) != 4:
         return None
-    return BootInfo(params[4], params[5:8], int.from_bytes(params[8:10], "little"),
-                    int.from_bytes(params[10:12], "little"), params[12])
+    return BootInfo(answer.params[0], bytes(answer.params[1:4]))
 
 
 def u16(value):
@@ -63,15 +67,28 @@ class BootClient:
     def ident(self):
         return self.servo.ident
 
-    def ask(self, instruction, params=(), what="", retry_errors=0, attempts=None):
+    def _exchange(self, instruction, params, echo):
+        """The servo's answer to one request; with echo, an answer whose parameters are not
+        echo is a late one to an earlier request (sent again after a timeout), and the next
+        one is waited for."""
+        answer = self.servo.exchange(instruction, params)
+        deadline = time.monotonic() + self.servo.timeout_s
+        while echo is not None and bytes(answer.params) != echo:
+            answer = self.servo.read_status(deadline)
+        return answer
+
+    def ask(self, instruction, params=(), what="", retry_errors=0, attempts=None, echo=None):
         """The answer (ax12_packets.Packet) to instruction, sent again after a timeout, a bad
         checksum or an error bit among retry_errors, at most attempts times in all (default
-        retries + 1). Any other error bit raises BootError at once."""
+        retries + 1). Any other error bit raises BootError at once. echo: the parameters the
+        answer must carry (others are late answers, skipped)."""
         attempts = self.retries + 1 if attempts is None else attempts
         problem = None
-        for _ in range(attempts):
+        for attempt in range(attempts):
+            if attempt:
+                self.servo.port.write(FLUSH)
             try:
-                answer = self.servo.exchange(instruction, params)
+                answer = self._exchange(instruction, params, echo)
             except (NoAnswer, BadChecksum) as error:
                 problem = str(error)
                 continue
@@ -115,20 +132,15 @@ class BootClient:
         except (NoAnswer, BadChecksum):
             return None
 
-    def begin(self, length, crc):
-        self.ask(BEGIN, u16(length) + u16(crc), "BEGIN")
-
-    def page(self, address, data, crc):
-        """Writes one page; a CRC mismatch (0x10) or a failed read-back (0x20) is tried again."""
-        self.ask(PAGE, u16(address) + u16(crc) + list(data), f"PAGE 0x{address:04X}",
-                 retry_errors=ERR_CRC | ERR_READ_BACK)
-
-    def end(self):
-        self.ask(END, (), "END")
+    def page(self, address, data):
+        """Writes one page; a read-back error (0x20) is tried again. The answer carries the
+        address back."""
+        self.ask(PAGE, u16(address) + list(data), f"PAGE 0x{address:04X}", retry_errors=ERR_READ_BACK,
+                 echo=bytes(u16(address)))
 
     def read_page(self, address, page_bytes):
-        """The page_bytes flash bytes of the page at address (page-aligned: a page of the
-        application area or the record page)."""
+        """The page_bytes flash bytes of the page at address (a page of the application
+        area)."""
         answer = self.ask(READ, u16(address), f"READ 0x{address:04X}")
         if len(answer.params) != page_bytes:
             raise BootError(f"READ 0x{address:04X}: servo {self.ident} answered {len(answer.params)} bytes, "
@@ -137,12 +149,9 @@ class BootClient:
 
     def go(self):
         """GO once (the application may already run when the answer is lost): the answer, or
-        None when none came. Raises BootError when the bootloader says the application is not
-        valid."""
+        None when none came. The bootloader answers, then starts the application if it is
+        valid and stays otherwise."""
         try:
-            answer = self.servo.exchange(GO)
+            return self.servo.exchange(GO)
         except (NoAnswer, BadChecksum):
             return None
-        if answer.code & ERR_CRC:
-            raise BootError(f"GO: servo {self.ident}: the application is not valid")
-        return answer

@@ -12,30 +12,47 @@ fuse tables (ATmega48/88/168 and ATmega328P, "Memory Programming").
 from dataclasses import dataclass
 
 
+# The boot section (docs/bootloader.md "Flash layout"): its top 512 B on both parts; the
+# application record takes the last 4 B below it.
+BOOT_SECTION_BYTES = 512
+RECORD_BYTES = 4
+
+# The parts whose builds carry the bootloader (firmware/boot; cmake/firmware.cmake's
+# AX12_FIRMWARE_BOOTABLE_MCUS): their board gets the merged HEX (application, record,
+# bootloader) and BOOTRST programmed, and their application ends below the record.
+BOOTLOADER_MCUS = {"atmega88", "atmega328p"}
+
+
 @dataclass(frozen=True)
 class Mcu:
     name: str             # as the build names it: ax12-<profile>-<name>.elf
     part: str             # avrdude's -p
     signature: bytes      # the part's three signature bytes (the bootloader's INFO gives them)
     flash_bytes: int
-    page_bytes: int           # flash page size (SPM writes a page at a time)
-    boot_section_bytes: int   # the boot section BOOTSZ selects
-    app_limit_bytes: int      # what the application image itself may occupy (see below)
+    page_bytes: int       # flash page size (SPM writes a page at a time)
 
+    boot_section_bytes = BOOT_SECTION_BYTES
 
-# The ATmega328P: the bootloader in its 2 KB boot section (0x7800-0x7FFF); below it the
-# application area, whose last page (0x7780-0x77FF) holds the application record
-# (docs/bootloader.md "Flash layout"), so the image itself ends below 0x7780.
-# The ATmega88's application (8012 B) does not fit beside any boot section (the smallest,
-# 256 B, leaves 7936 B): until it is at most 6144 B (the flash goal in README.md) it has no
-# bootloader and may use the whole flash.
-# The parts whose builds carry the bootloader (firmware/boot): their board gets the merged HEX
-# (application, record page, bootloader) and BOOTRST programmed.
-BOOTLOADER_MCUS = {"atmega328p"}
+    @property
+    def boot_start(self):
+        """The boot section's first byte: the end of the application area."""
+        return self.flash_bytes - BOOT_SECTION_BYTES
+
+    @property
+    def record_at(self):
+        """The application record's first byte (the last RECORD_BYTES of the application area)."""
+        return self.boot_start - RECORD_BYTES
+
+    @property
+    def app_limit_bytes(self):
+        """What the application image itself may occupy: up to the record beside the
+        bootloader, the whole flash on a part without it."""
+        return self.record_at if self.name in BOOTLOADER_MCUS else self.flash_bytes
+
 
 MCUS = {
-    "atmega88": Mcu("atmega88", "m88", bytes([0x1E, 0x93, 0x0A]), 8192, 64, 2048, 8192),
-    "atmega328p": Mcu("atmega328p", "m328p", bytes([0x1E, 0x95, 0x0F]), 32768, 128, 2048, 32768 - 2048 - 128),
+    "atmega88": Mcu("atmega88", "m88", bytes([0x1E, 0x93, 0x0A]), 8192, 64),
+    "atmega328p": Mcu("atmega328p", "m328p", bytes([0x1E, 0x95, 0x0F]), 32768, 128),
 }
 
 # Low byte, the same on both parts: CKDIV8 1 (not divided), CKOUT 1 (no clock on PB0),
@@ -73,14 +90,14 @@ def fuse_fields(mcu, bootloader=False):
         return {
             "lfuse": dict(_LOW),
             "hfuse": dict(_HIGH_COMMON, BODLEVEL=_BODLEVEL_4V3),
-            # BOOTSZ 00: 1024 words = 2 KB boot section, 0x1800-0x1FFF.
-            "efuse": {"BOOTSZ": 0b00, "BOOTRST": bootrst},
+            # BOOTSZ 10: 256 words = 512 B boot section, 0x1E00-0x1FFF.
+            "efuse": {"BOOTSZ": 0b10, "BOOTRST": bootrst},
         }
     if mcu == "atmega328p":
         return {
             "lfuse": dict(_LOW),
-            # BOOTSZ 01: 1024 words = 2 KB boot section, 0x7800-0x7FFF.
-            "hfuse": dict(_HIGH_COMMON, BOOTSZ=0b01, BOOTRST=bootrst),
+            # BOOTSZ 11: 256 words = 512 B boot section, 0x7E00-0x7FFF.
+            "hfuse": dict(_HIGH_COMMON, BOOTSZ=0b11, BOOTRST=bootrst),
             "efuse": {"BODLEVEL": _BODLEVEL_4V3},
         }
     raise KeyError(mcu)

@@ -6,14 +6,14 @@ its bootloader (docs/bootloader.md, section "Updating over the bus").
 Steps: the file is read and checked (python/ax12_app_image.py) before anything is sent, against
 its own part's facts too (a part with a bootloader, its application area); INFO to the servo (an
 application is asked into its bootloader with instruction 0x0A "BOOT"); the image checked
-against the part and the application area INFO gives; BEGIN, every PAGE (each tried again, up
-to --retries more times, after a lost or garbled answer or a CRC or read-back error), END; every
-page and the record read back and compared (unless --no-verify); GO; then the application must
-answer a PING and a READ of its Model Number and Firmware Version. A servo this command asked
-into its bootloader and then refused (another part, another application area, Ctrl-C) before
-BEGIN is sent GO, so it runs its application again. Progress and steps on stderr, the result on
-stdout; every error one line on stderr, a port lost mid-update (the adapter unplugged, the
-emulator gone) included.
+against the part INFO names; the pages written (each tried again, up to --retries more times,
+after a lost or garbled answer or a read-back error): the record's page first with the record
+erased, the image, the record's page last with the record; every written page read back and
+compared (unless --no-verify); GO; then the application must answer a PING and a READ of its
+Model Number and Firmware Version. A servo this command asked into its bootloader and then
+refused (another part, another bootloader version, Ctrl-C) before the first page is sent GO, so
+it runs its application again. Progress and steps on stderr, the result on stdout; every error
+one line on stderr, a port lost mid-update (the adapter unplugged, the emulator gone) included.
 
 Exit status: 0 done; 1 the servo, the port or the transfer failed (the message says where); 2 a
 bad file, a file for another part or too large, bad arguments, or a port that cannot be opened.
@@ -29,6 +29,7 @@ sys.path.insert(0, os.path.join(REPO, "python"))
 EXIT_DONE, EXIT_SERVO, EXIT_BAD_INPUT = 0, 1, 2
 ANSWER_TIMEOUT_S = 0.3      # per request; the bootloader answers at once, the pty may hold bytes
 ENTER_TIMEOUT_S = 1.5       # from the application's answer to BOOT to the bootloader's to INFO
+BOOT_AGAIN_S = 0.1          # BOOT again while the application still answers (a store was under way)
 START_TIMEOUT_S = 2.0       # from GO to the application's answer to PING
 
 
@@ -49,8 +50,8 @@ def arguments(argv):
                     help="the servo's bit rate (default 1000000)")
     ap.add_argument("--retries", type=int, default=3, metavar="K",
                     help="how many more times a request is sent after a lost or garbled answer, a page "
-                         "after a CRC or read-back error, and GO while the servo is still in its "
-                         "bootloader (default 3)")
+                         "after a read-back error, and GO while the servo is still in its bootloader "
+                         "(default 3)")
     ap.add_argument("--no-verify", action="store_true", help="do not read the pages back after writing")
     ap.add_argument("--build", default=os.path.join(REPO, "build"), help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
@@ -109,8 +110,8 @@ def enter_bootloader(client, baud, boot, asked=None):
     """The BootInfo of the servo's bootloader, asking a running application into it first
     (then asked(), before the request goes out)."""
     answer = client.info(attempts=2)
-    if answer is not None and boot.parse_info(answer.params):
-        return boot.parse_info(answer.params)
+    if boot.parse_info(answer):
+        return boot.parse_info(answer)
     if answer is None:
         # An application with Status Return Level 0 answers only PING.
         if client.ping(attempts=2) is None:
@@ -121,38 +122,41 @@ def enter_bootloader(client, baud, boot, asked=None):
     say(f"servo {client.ident} runs its application: asking it into the bootloader")
     if asked is not None:
         asked()
-    reply = client.request_bootloader()
-    if reply is not None and reply.code & boot.ERR_INSTRUCTION:
-        raise boot.BootError(f"servo {client.ident}'s application does not know instruction 0x0A \"BOOT\": "
-                             f"it has no bootloader to enter (an ATmega88, or older firmware: flash it over ISP)")
     deadline = time.monotonic() + ENTER_TIMEOUT_S
     while time.monotonic() < deadline:
-        answer = client.info()
-        info = answer is not None and boot.parse_info(answer.params)
-        if info:
-            return info
+        reply = client.request_bootloader()
+        if reply is not None and reply.code & boot.ERR_INSTRUCTION:
+            raise boot.BootError(f"servo {client.ident}'s application does not know instruction 0x0A \"BOOT\": "
+                                 f"it has no bootloader to enter (flash it over ISP: scripts/ax12 flash-isp)")
+        asked = time.monotonic()
+        while time.monotonic() - asked < BOOT_AGAIN_S:
+            answer = client.info()
+            info = boot.parse_info(answer)
+            if info:
+                return info
+            if answer is not None and answer.code & boot.ERR_INSTRUCTION:
+                break  # the application still runs: it stores its settings first; asked again
     raise boot.BootError(f"servo {client.ident} did not answer as a bootloader within {ENTER_TIMEOUT_S:g} s "
                          f"of the request to enter it")
 
 
-def write_image(client, image, info, verify, image_module, begun=None):
-    """BEGIN (begun() first), the pages, END, and (verify) every page and the record read back."""
-    pages = image.pages(info.page_bytes)
+def write_image(client, image, mcu, verify, begun=None):
+    """The pages of the update in their order (ax12_app_image.update_pages: the record erased
+    first, written last; begun() before the first), then (verify) every page as it must read
+    now."""
+    plan = image.update_pages(mcu)
     if begun is not None:
         begun()
-    client.begin(len(image.data), image.crc)
-    progress = Progress("writing", len(pages))
-    for done, (address, data) in enumerate(pages, 1):
-        client.page(address, data, image_module.crc16(data))
+    progress = Progress("writing", len(plan))
+    for done, (address, data) in enumerate(plan, 1):
+        client.page(address, data)
         progress.update(done)
     progress.finish()
-    client.end()
     if not verify:
         return
-    record_at = info.app_area_bytes - info.page_bytes
-    expected = pages + [(record_at, image.record_page(info.page_bytes))]
+    expected = dict(plan)  # the record's page as written last
     progress = Progress("verifying", len(expected))
-    for done, (address, data) in enumerate(expected, 1):
+    for done, (address, data) in enumerate(sorted(expected.items()), 1):
         got = client.read_page(address, len(data))
         if got != data:
             first = next(i for i in range(len(data)) if got[i] != data[i])
@@ -179,8 +183,7 @@ def application_answer(client, boot):
             return STILL_IN_BOOTLOADER
         if answer is not None and not answer.code and len(answer.params) == boot.IDENTITY_BYTES:
             return answer.params[0] | (answer.params[1] << 8), answer.params[2]
-    info = client.info()
-    if info is not None and boot.parse_info(info.params):
+    if boot.parse_info(client.info()):
         return STILL_IN_BOOTLOADER
     return None, None
 
@@ -193,7 +196,8 @@ def start_application(client, boot, retries):
         result = application_answer(client, boot)
         if result != STILL_IN_BOOTLOADER:
             return result
-    raise boot.BootError(f"servo {client.ident} is still in its bootloader after GO ({retries + 1} attempts)")
+    raise boot.BootError(f"servo {client.ident} is still in its bootloader after GO ({retries + 1} attempts): "
+                         f"the application in its flash is not valid")
 
 
 def restart_application(client, boot):
@@ -226,16 +230,18 @@ def main(argv=None, open_port=open_serial):
     ax12_build.ensure(args.build)
     import ax12_app_image as image_module
     import ax12_boot_client as boot
+    import ax12_fuses
     from ax12_servo_port import ServoPort
 
     port = None
     # The servo's state as far as this command moved it: asked into its bootloader by it, and
-    # whether BEGIN went out (from then on its application is not valid until END).
+    # whether the first page went out (it erases the record: from then on the application is not
+    # valid until the record's page is written last).
     moved = {"asked": False, "begun": False}
     client = None
 
     def leave_refused(code):
-        """A refusal after this command asked the servo in and before BEGIN: GO first."""
+        """A refusal after this command asked the servo in and before the first page: GO first."""
         if moved["asked"] and not moved["begun"] and client is not None:
             if not restart_application(client, boot):
                 return EXIT_SERVO
@@ -251,11 +257,14 @@ def main(argv=None, open_port=open_serial):
         if mcu is None:
             raise boot.BootError(f"servo {args.ident}'s bootloader reports the signature "
                                  f"{info.signature.hex(' ').upper()}, no part this tool knows")
-        say(f"servo {args.ident}: bootloader {info.version} on an {mcu}, page {info.page_bytes} B, "
-            f"{image_module.area_text(info.app_area_bytes, info.page_bytes)}, application "
-            f"{'valid' if info.state & boot.STATE_APP_VALID else 'not valid'}")
-        image.check_target(mcu, info.app_area_bytes, info.page_bytes)
-        write_image(client, image, info, not args.no_verify, image_module, begun=lambda: moved.update(begun=True))
+        if info.version != boot.VERSION:
+            raise boot.BootError(f"servo {args.ident}'s bootloader is version {info.version}; this tool "
+                                 f"writes to version {boot.VERSION} (docs/bootloader.md)")
+        part = ax12_fuses.MCUS[mcu]
+        say(f"servo {args.ident}: bootloader {info.version} on an {mcu}, page {part.page_bytes} B, "
+            f"{image_module.area_text(mcu)}")
+        image.check_target(mcu)
+        write_image(client, image, mcu, not args.no_verify, begun=lambda: moved.update(begun=True))
         model, version = start_application(client, boot, args.retries)
     except (image_module.ImageError, BadInput) as error:
         say(str(error))
@@ -265,7 +274,8 @@ def main(argv=None, open_port=open_serial):
         return leave_refused(EXIT_SERVO)
     except KeyboardInterrupt:
         if moved["begun"]:
-            say("interrupted: a servo stopped between BEGIN and END stays in its bootloader; run the command again")
+            say("interrupted: a servo stopped once its first page (the record erased) was written stays in its "
+                "bootloader; run the command again")
             return EXIT_SERVO
         say("interrupted")
         return leave_refused(EXIT_SERVO)
@@ -273,8 +283,8 @@ def main(argv=None, open_port=open_serial):
         if sys.stderr.isatty():
             sys.stderr.write("\n")  # past a progress bar
         say(f"lost the port {args.port} ({error}); " + (
-            f"servo {args.ident} stays in its bootloader (its application is not valid): run the command "
-            f"again once the bus is back" if moved["begun"] else "nothing was written"))
+            f"servo {args.ident} stays in its bootloader: run the command again once the bus is back"
+            if moved["begun"] else "nothing was written"))
         return EXIT_SERVO
     finally:
         if port is not None:
@@ -282,7 +292,7 @@ def main(argv=None, open_port=open_serial):
                 port.close()
             except port_errors():
                 pass
-    pages = len(image.pages(info.page_bytes))
+    pages = len(image.update_pages(mcu))
     started = (f"Model Number {model}, Firmware Version {version}" if model is not None
                else "it answers PING, not READ (Status Return Level 0)")
     print(f"servo {args.ident}: {os.path.basename(args.firmware)} written ({len(image.data)} B, {pages} pages)"

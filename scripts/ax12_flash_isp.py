@@ -4,10 +4,10 @@
 
 Runs avrdude with the part (-p m88 / m328p), the programmer, the flash image in Intel HEX and
 the fuse bytes of python/ax12_fuses.py (docs/hardware.md "Fuses"). The image: on a part with a
-bootloader (the ATmega328P) the merged HEX, build/firmware/ax12-<profile>-<mcu>-merged.hex
+bootloader (both) the merged HEX, build/firmware/ax12-<profile>-<mcu>-merged.hex
 (application, record page, bootloader), with BOOTRST programmed, so the board can then be
-updated over the bus (`scripts/ax12 flash`); with --app-only, or on the ATmega88, the
-application's HEX alone (ax12-<profile>-<mcu>.hex) with BOOTRST unprogrammed. --hex FILE
+updated over the bus (`scripts/ax12 flash`); with --app-only the application's HEX alone
+(ax12-<profile>-<mcu>.hex) with BOOTRST unprogrammed. --hex FILE
 writes another image: one with bytes in the boot section is taken as a whole flash with its
 bootloader, any other as an application alone. The flash is written first, then the fuses:
 a new part still runs from its internal 1 MHz oscillator while the flash is written, and a

@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 # SPDX-License-Identifier: GPL-3.0-or-later
 """Writes the whole flash of a new board as one Intel HEX: the application's HEX, its
-application record page and the bootloader's HEX (docs/bootloader.md "Flash layout";
-python/ax12_app_image.py). Run by the build (cmake/firmware.cmake) for every ATmega328P
-application:
+application record and the bootloader's HEX (docs/bootloader.md "Flash layout";
+python/ax12_app_image.py). Run by the build (cmake/firmware.cmake) for every application that
+sits beside the bootloader (firmware/bootable_mcus.cmake):
 
     ax12_merge_hex.py --mcu atmega328p APP.hex BOOT.hex OUT.hex
 

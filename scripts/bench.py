@@ -333,32 +333,35 @@ def dashboard_robot_cost(emu, fw, seconds, row):
 
 
 def bootloader_figures(emu, fw, build, row):
-    """The bootloader's size, and an update of one servo of three (ATmega328P, the ax12a build
-    over the ax12 one) with `scripts/ax12 flash` through ax12-emu's pty in real time behind the
+    """Each part's bootloader size, and an update of one servo of three (the ax12a build over
+    the ax12 one) with `scripts/ax12 flash` through ax12-emu's pty in real time behind the
     default U2D2 model, at 1 Mbps and at 57 600 baud (the servos' Baud Rate register 34): the
     wall time of the whole command (entering the bootloader, every page written and read back,
     the application started and asked its version), with the emulator's own check that it kept
     real time (its speed and worst lag) beside it."""
-    boot_flash, _ = avr_size(os.path.join(fw, "ax12-boot-atmega328p.elf"))
-    row("bootloader", "ATmega328P bootloader flash", boot_flash, "B", "<= 2048", "bootloader_flash_bytes")
-    image = os.path.join(fw, "ax12-ax12a-atmega328p.hex")
-    for bps, label in ((1000000, "1 Mbps"), (57600, "57 600 baud")):
-        serve = Serve(emu, fw, "1,2,3", ("--mcu", "atmega328p", "--baud", str(bps)))
-        try:
-            start = time.monotonic()
-            run = subprocess.run([sys.executable, os.path.join(REPO, "scripts", "ax12_flash.py"), "--build", build,
-                                  "--port", serve.device, "--id", "2", "--baud", str(bps), image],
-                                 capture_output=True, text=True, timeout=600)
-            seconds = time.monotonic() - start
-        finally:
-            stats = serve.stop()
-        if run.returncode != 0:
-            raise RuntimeError("scripts/ax12 flash failed: " + run.stdout + run.stderr)
-        key = "bootloader_update_%s_s" % ("1m" if bps == 1000000 else "57600")
-        row("bootloader", "update of one servo at %s (%d B), wall" % (label, ax12_app_bytes(image)), seconds, "s",
-            "", key)
-        row("bootloader", "  emulator speed / worst lag meanwhile",
-            "%.2fx / %.1f ms" % (stats.get("speed", 0), stats.get("worst_lag_ms", 0)), "", "1.00x real time")
+    for mcu in ("atmega88", "atmega328p"):
+        boot_elf = os.path.join(fw, "ax12-boot-%s.elf" % mcu)
+        boot_flash, _ = avr_size(boot_elf)
+        row("bootloader", "%s bootloader flash" % mcu, boot_flash, "B", "<= 512", "bootloader_flash_bytes_%s" % mcu)
+        image = os.path.join(fw, "ax12-ax12a-%s.hex" % mcu)
+        for bps, label in ((1000000, "1 Mbps"), (57600, "57 600 baud")):
+            serve = Serve(emu, fw, "1,2,3", ("--mcu", mcu, "--baud", str(bps), "--bootloader", boot_elf,
+                                             "--elf", os.path.join(fw, "ax12-ax12-%s.elf" % mcu)))
+            try:
+                start = time.monotonic()
+                run = subprocess.run([sys.executable, os.path.join(REPO, "scripts", "ax12_flash.py"), "--build", build,
+                                      "--port", serve.device, "--id", "2", "--baud", str(bps), image],
+                                     capture_output=True, text=True, timeout=600)
+                seconds = time.monotonic() - start
+            finally:
+                stats = serve.stop()
+            if run.returncode != 0:
+                raise RuntimeError("scripts/ax12 flash failed: " + run.stdout + run.stderr)
+            key = "bootloader_update_%s_%s_s" % (mcu, "1m" if bps == 1000000 else "57600")
+            row("bootloader", "%s: update of one servo at %s (%d B), wall" % (mcu, label, ax12_app_bytes(image)),
+                seconds, "s", "", key)
+            row("bootloader", "  emulator speed / worst lag meanwhile",
+                "%.2fx / %.1f ms" % (stats.get("speed", 0), stats.get("worst_lag_ms", 0)), "", "1.00x real time")
 
 
 def ax12_app_bytes(hex_path):

@@ -1,32 +1,21 @@
 /* How the application asks for the bootloader (docs/bootloader.md "Entering from the
- * application"): it jumps to the boot section's first word with GPIOR1/GPIOR2 holding these
- * marks, which read 0 after any reset; the bootloader reads and clears them. AVR only. */
+ * application"): interrupts off, it jumps to the boot section's second word
+ * (boot_requested in boot_entry.S), which skips the '#' window and the application check;
+ * every reset starts at the first word. AVR only. */
 #ifndef BOOT_REQUEST_H
 #define BOOT_REQUEST_H
 
 #include <avr/io.h>
-#include <stdbool.h>
 
 #include "boot_image.h"
 
-#define BOOT_REQUEST_MARK_1 0xB0u
-#define BOOT_REQUEST_MARK_2 0x07u
+/* The boot section's second word, as a word address (what IJMP takes). */
+#define BOOT_REQUEST_WORD ((FLASHEND + 1ul - BOOT_SECTION_BYTES) / 2u + 1u)
 
-/* The application's side: interrupts off, marks set, into the bootloader. */
+/* The application's side: interrupts off, r1 = 0 (the C ABI's), into the bootloader. */
 __attribute__((noreturn)) static inline void boot_request_enter(void) {
-  __asm__ __volatile__("cli" ::: "memory");
-  GPIOR1 = BOOT_REQUEST_MARK_1;
-  GPIOR2 = BOOT_REQUEST_MARK_2;
-  __asm__ __volatile__("ijmp" ::"z"((uint16_t)((FLASHEND + 1ul - BOOT_SECTION_BYTES) / 2u)) : "memory");
+  __asm__ __volatile__("cli\n\tijmp" ::"z"((uint16_t)BOOT_REQUEST_WORD) : "memory");
   __builtin_unreachable();
-}
-
-/* The bootloader's side: whether the application asked; forgets the marks. */
-static inline bool boot_request_take(void) {
-  const bool requested = GPIOR1 == BOOT_REQUEST_MARK_1 && GPIOR2 == BOOT_REQUEST_MARK_2;
-  GPIOR1 = 0;
-  GPIOR2 = 0;
-  return requested;
 }
 
 #endif

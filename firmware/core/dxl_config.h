@@ -14,7 +14,8 @@
 #endif
 
 /* 1 when the firmware sits beside the bootloader (docs/bootloader.md): it then takes the
- * instruction that enters it (DXL_INST_BOOTLOADER). The ATmega328P builds; 0 elsewhere. */
+ * instruction that enters it (DXL_INST_BOOTLOADER). The builds of firmware/bootable_mcus.cmake's
+ * parts; 0 elsewhere. */
 #ifndef DXL_HAS_BOOTLOADER
 #define DXL_HAS_BOOTLOADER 0
 #endif
@@ -27,11 +28,6 @@
 #else
 #define DXL_LINK_OBSERVER 1
 #endif
-#endif
-
-/* 1 in the bootloader's build: dxl_crc16_update() through avr-libc (dxl_image.c). */
-#ifndef DXL_CRC16_AVR_LIBC
-#define DXL_CRC16_AVR_LIBC 0
 #endif
 
 /* This firmware's own version number, reported at address 2: one per profile, so a client can

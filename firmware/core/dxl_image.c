@@ -3,31 +3,18 @@
 
 #include <string.h>
 
-#if DXL_CRC16_AVR_LIBC
-#include <util/crc16.h>
-#endif
-
 #define CRC16_INITIAL 0xFFFFu
 /* Serial number arithmetic on 8 bits: a difference below this is "ahead". */
 #define SEQUENCE_HALF 128u
 
-/* One byte's eight steps of polynomial 0x1021, MSB first. In the bootloader
- * (DXL_CRC16_AVR_LIBC) avr-libc's _crc_xmodem_update, which is that step (XMODEM differs from
- * CCITT-FALSE only by its initial value, which the callers give): about 20 cycles a byte, where
- * C's 16-bit shifts take 60-90, and the bootloader checks the whole application with it at
- * every reset (docs/bootloader.md). Elsewhere the same step in C, byte-wide (no loop, no
- * table): the application checks 59 bytes at power-up, and it is smaller there. */
+/* One byte's eight steps of polynomial 0x1021, MSB first, byte-wide (no loop, no table). */
 uint16_t dxl_crc16_update(uint16_t crc, uint8_t byte) {
-#if DXL_CRC16_AVR_LIBC
-  return _crc_xmodem_update(crc, byte);
-#else
   crc = (uint16_t)((crc >> 8) | (crc << 8));
   crc ^= byte;
   crc ^= (uint16_t)((crc & 0xFFu) >> 4);
   crc ^= (uint16_t)(crc << 12);
   crc ^= (uint16_t)((crc & 0xFFu) << 5);
   return crc;
-#endif
 }
 
 uint16_t dxl_image_slot_crc(const uint8_t slot[DXL_IMAGE_SLOT_BYTES]) {

@@ -36,6 +36,19 @@
 #define BROADCAST_ANSWERED(instruction) (BROADCAST_PING_ANSWERED && (instruction) == DXL_INST_PING)
 #endif
 
+#if DXL_HAS_BOOTLOADER
+/* The key "BOOT" as one little-endian number (one 32-bit compare). Here, not in
+ * dxl_protocol.h, whose every #define is one line (python/CMakeLists.txt reads them). */
+#define BOOTLOADER_KEY_U32                                                                                        \
+  ((uint32_t)DXL_BOOTLOADER_KEY_0 | (uint32_t)DXL_BOOTLOADER_KEY_1 << 8 | (uint32_t)DXL_BOOTLOADER_KEY_2 << 16 | \
+   (uint32_t)DXL_BOOTLOADER_KEY_3 << 24)
+
+/* The four bytes at bytes as one little-endian number. */
+static uint32_t little_endian_u32(const uint8_t *bytes) {
+  return (uint32_t)bytes[0] | (uint32_t)bytes[1] << 8 | (uint32_t)bytes[2] << 16 | (uint32_t)bytes[3] << 24;
+}
+#endif
+
 static uint8_t min_status_level(uint8_t instruction) {
   switch (instruction) {
   case DXL_INST_PING:
@@ -132,12 +145,12 @@ static void clear_registered(dxl_servo_t *s) {
 
 DXL_ONE_COPY void dxl_servo_power_up(dxl_servo_t *servo, const uint8_t *eeprom_area, uint16_t present_position) {
   memset(servo, 0, sizeof *servo);
-  ct_load_factory_eeprom(servo->table);
+  ct_load_factory_defaults(servo->table);
   if (eeprom_area != NULL) {
     memcpy(servo->table, eeprom_area, CT_EEPROM_SIZE);
     ct_repair_stored_eeprom(servo->table); /* model, version from this firmware; no item out of range */
   }
-  ct_load_power_up_ram(servo->table, present_position);
+  ct_set_power_up_ram(servo->table, present_position);
 }
 
 void dxl_servo_factory_reset(dxl_servo_t *servo) {
@@ -236,8 +249,7 @@ static uint8_t plan_instruction(const dxl_servo_t *s, const dxl_packet_t *p, boo
     return plan_checked_write(s, r, DXL_ACTION_RUN_REGISTERED, s->reg_start, s->reg_data, s->reg_len);
 #if DXL_HAS_BOOTLOADER
   case DXL_INST_BOOTLOADER:
-    if (broadcast || count != 4u || params[0] != DXL_BOOTLOADER_KEY_0 || params[1] != DXL_BOOTLOADER_KEY_1 ||
-        params[2] != DXL_BOOTLOADER_KEY_2 || params[3] != DXL_BOOTLOADER_KEY_3) {
+    if (broadcast || count != 4u || little_endian_u32(params) != BOOTLOADER_KEY_U32) {
       break;
     }
     r->after |= DXL_AFTER_BOOTLOADER;

@@ -25,7 +25,7 @@ enum ct_addr {
 #undef CT_X_ADDR
 };
 
-/* CT_IDX_<NAME>: the position of each item in ct_items[]. */
+/* CT_IDX_<NAME>: the position of each item in ct_items.h (CT_ITEM_COUNT: how many). */
 enum ct_index {
 #define CT_X_INDEX(name, addr, size, acc, acc_a, min, max, def, def_a) CT_IDX_##name,
   CT_ITEMS(CT_X_INDEX)
@@ -33,21 +33,35 @@ enum ct_index {
   CT_ITEM_COUNT
 };
 
-/* One item as the built profile sees it. */
-/* 8 bytes an item (flash): no minimum is above 255 (checked in dxl_table.c). */
+/* The table's rules one address at a time, for the built profile (what the firmware reads):
+ * a byte's access (that of its item), whether it is the low or the high byte of a 2-byte item,
+ * the range of the byte alone and its factory default. A 2-byte writable item's range is
+ * 0..(H << 8 | 0xFF) (checked in dxl_table.c), so "every byte within its byte range" is exactly
+ * "the 16-bit value within the item's range": the low byte takes 0..255, the high byte 0..H. */
+#define CT_BYTE_ACCESS_MASK 0x03u /* enum ct_access */
+#define CT_BYTE_LOW_OF_PAIR 0x04u /* the low byte of a 2-byte item (its high byte follows) */
+#define CT_BYTE_HIGH_OF_PAIR 0x08u
+typedef struct {
+  uint8_t rule; /* access | CT_BYTE_LOW_OF_PAIR | CT_BYTE_HIGH_OF_PAIR */
+  uint8_t min;
+  uint8_t max;
+  uint8_t factory_default;
+} ct_byte_t;
+
+extern const DXL_FLASH ct_byte_t ct_bytes[CT_SIZE];
+
+/* One item as the built profile sees it (the tests' view of ct_bytes[]). */
 typedef struct {
   uint8_t addr;
   uint8_t size_bytes; /* 1 or 2 */
   uint8_t access;     /* enum ct_access */
-  uint8_t min;
+  uint16_t min;
   uint16_t max;
   uint16_t factory_default;
 } ct_desc_t;
 
-extern const DXL_FLASH ct_desc_t ct_items[CT_ITEM_COUNT];
-
-/* Index into ct_items[] of the item that contains address addr (addr < CT_SIZE). */
-uint8_t ct_item_index_at(uint8_t addr);
+/* The item that contains address addr (addr < CT_SIZE). */
+ct_desc_t ct_item_at(uint8_t addr);
 
 /* 16-bit items, low byte first. Inlined everywhere (a call costs more than the access). */
 static inline __attribute__((always_inline)) uint16_t ct_get_u16(const uint8_t *table, uint8_t addr) {
@@ -59,16 +73,18 @@ static inline __attribute__((always_inline)) void ct_set_u16(uint8_t *table, uin
   table[addr + 1] = (uint8_t)(value >> 8);
 }
 
-/* Factory defaults of the EEPROM area (0..23). */
-void ct_load_factory_eeprom(uint8_t *table);
+/* Factory defaults for the whole table (the RAM area's power-up values but for the items
+ * ct_set_power_up_ram() sets). */
+void ct_load_factory_defaults(uint8_t *table);
 /* A stored EEPROM area made safe to run (docs/policy.md "Power-up"): the items that are not
  * writable (model number, firmware version, calibration, reserved) take this firmware's
  * values, and every writable item outside the range a WRITE would accept takes its factory
  * default; the others are kept. Lock must be off in table. */
 void ct_repair_stored_eeprom(uint8_t *table);
-/* Power-up values of the RAM area (24..49) from the EEPROM area and Present Position:
- * Goal Position = present_position, Torque Limit = Max Torque (docs/policy.md "Power-up"). */
-void ct_load_power_up_ram(uint8_t *table, uint16_t present_position);
+/* The power-up values of the RAM area that are not factory defaults, from the EEPROM area and
+ * Present Position: Goal Position = present_position, Torque Limit = Max Torque (docs/policy.md
+ * "Power-up"). */
+void ct_set_power_up_ram(uint8_t *table, uint16_t present_position);
 
 /* True when both angle limits are 0 (endless turn). */
 bool ct_is_wheel_mode(const uint8_t *table);

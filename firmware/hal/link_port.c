@@ -2,10 +2,8 @@
  * receive ring, the reply and listening over USART0 (uart.h), the settings' store (nvm.h), the
  * bootloader's entry. One servo: port is NULL and unused. Each function is a few instructions,
  * inlined at link time. */
-#include "board.h"
 #include "dxl_after_port.h"
 #include "dxl_link_port.h"
-#include "motor.h"
 #include "nvm.h"
 #include "uart.h"
 #if DXL_HAS_BOOTLOADER
@@ -77,15 +75,14 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
 }
 
 #if DXL_HAS_BOOTLOADER
-/* The settings' store finishes first (a few bytes of 3.4 ms each), so the bootloader finds
- * them whole; the motor coasts. */
-void dxl_after_port_enter_bootloader(void *port, const uint8_t *table) {
+/* Only with no store of the settings under way (a few bytes of 3.4 ms each), so that the
+ * bootloader finds them whole and none is cut; otherwise the application stays, and the
+ * flasher asks again (docs/bootloader.md "Entering from the application"). The bootloader
+ * stops the motor. */
+void dxl_after_port_enter_bootloader(void *port) {
   (void)port;
-  while (nvm_busy()) {
-    board_watchdog_kick();
-    nvm_service(table);
+  if (!nvm_busy()) {
+    boot_request_enter();
   }
-  motor_set_drive(0);
-  boot_request_enter();
 }
 #endif

@@ -21,7 +21,7 @@ void dxl_after_reply(dxl_servo_t *servo, uint8_t after, void *port) {
   }
 #if DXL_HAS_BOOTLOADER
   if (after & DXL_AFTER_BOOTLOADER) {
-    dxl_after_port_enter_bootloader(port, servo->table);
+    dxl_after_port_enter_bootloader(port);
   }
 #endif
 }

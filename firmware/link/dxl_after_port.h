@@ -15,10 +15,10 @@ void dxl_after_port_persist(void *port, const uint8_t *table);
 void dxl_after_port_set_baud(void *port, uint8_t baud_register);
 
 #if DXL_HAS_BOOTLOADER
-/* Enters the bootloader once any store of the settings (table's EEPROM area, as for
- * dxl_after_port_persist) under way has finished; the bus is idle. On the board it does not
- * return. */
-void dxl_after_port_enter_bootloader(void *port, const uint8_t *table);
+/* Enters the bootloader when no store of the settings is under way; otherwise returns and the
+ * application stays (the flasher asks again; docs/bootloader.md "Entering from the
+ * application"). The bus is idle. On the board, entering does not return. */
+void dxl_after_port_enter_bootloader(void *port);
 #endif
 
 #endif

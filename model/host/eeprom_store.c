@@ -28,7 +28,7 @@ const char *eeprom_profile_name(eeprom_profile_t profile) {
 }
 
 /* The factory EEPROM area of either profile, from the one control-table definition
- * (ct_items.h; the same values ct_load_factory_eeprom() gives a core built for that
+ * (ct_items.h; the same values ct_load_factory_defaults() gives a core built for that
  * profile). The host links no profile-specific core, so both columns are read here. */
 static void factory_eeprom_area(uint8_t area[CT_EEPROM_SIZE], eeprom_profile_t profile) {
   memset(area, 0, CT_EEPROM_SIZE);

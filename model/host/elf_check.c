@@ -122,37 +122,6 @@ static FILE *open_for_a_question(const char *path, Elf32_Ehdr *h) {
   return elf_open_avr(path, h, err, sizeof err);
 }
 
-bool elf_flash_has_word(const char *path, uint16_t word) {
-  Elf32_Ehdr h;
-  FILE *f = open_for_a_question(path, &h);
-  if (!f) {
-    return false;
-  }
-  char err[160];
-  bool found = false;
-  for (unsigned i = 0; i < h.e_phnum && !found; i++) {
-    Elf32_Phdr ph;
-    /* the flash bytes of a segment: code at a flash address, or data's initial values, which
-     * sit in flash at the physical address */
-    if (!elf_program_header(f, &h, i, &ph, path, err, sizeof err) || ph.p_type != PT_LOAD || ph.p_filesz == 0 ||
-        ph.p_paddr >= ELF_AVR_DATA_SPACE) {
-      continue;
-    }
-    uint8_t *bytes = malloc(ph.p_filesz);
-    if (bytes && fseek(f, (long)ph.p_offset, SEEK_SET) == 0 && fread(bytes, ph.p_filesz, 1, f) == 1) {
-      for (uint32_t k = (ph.p_paddr & 1u); k + 1u < ph.p_filesz; k += 2u) {
-        if ((uint16_t)(bytes[k] | bytes[k + 1u] << 8) == word) {
-          found = true;
-          break;
-        }
-      }
-    }
-    free(bytes);
-  }
-  fclose(f);
-  return found;
-}
-
 bool elf_has_section(const char *path, const char *name) {
   Elf32_Ehdr h;
   FILE *f = open_for_a_question(path, &h);

@@ -29,11 +29,6 @@ bool elf_program_header(FILE *f, const Elf32_Ehdr *h, unsigned i, Elf32_Phdr *ph
  * a one-line reason in err. */
 bool elf_check_avr(const char *path, const char *mcu, char *err, size_t err_len);
 
-/* Whether the flash image of the ELF at path (its loaded bytes below RAM and EEPROM
- * windows) holds the 16-bit instruction word `word` at an even address: e.g. WDR (0x95A8), to
- * tell whether a program ever feeds the watchdog. False also when the file cannot be read. */
-bool elf_flash_has_word(const char *path, uint16_t word);
-
 /* Whether the ELF at path has a section called name (e.g. ".mmcu", where simavr's
  * avr_mcu_section.h puts the MCU and clock a program was built for). */
 bool elf_has_section(const char *path, const char *name);

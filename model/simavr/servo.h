@@ -152,8 +152,9 @@ void servo_destroy(servo_t *servo);
 bool servo_listening(const servo_t *servo);
 
 /* True once a client can talk to the servo (since_power_up: simulated time): it listens,
- * and if a bootloader runs first, the application does, or the bootloader has stayed (no valid
- * application) past its '#' window at 57 600 baud (docs/bootloader.md "At reset"). */
+ * and if a bootloader runs first, the application does with its receive interrupt on, or
+ * BOOT_WINDOW_DONE_MS have passed (the bootloader stayed: no valid application, past its '#'
+ * window at 57 600 baud, docs/bootloader.md "At reset"; or an application that polls). */
 bool servo_ready_for_clients(const servo_t *servo, sim_cycles_t since_power_up);
 
 /* Pulls the MCU's reset line (as the watchdog would): RAM, I/O and the USART restart,

@@ -56,27 +56,22 @@ int servo_boot_attach(servo_t *servo, const servo_bootloader_t *boot, uint32_t a
                       size_t err_len) {
   avr_t *avr = servo->avr;
   const uint32_t flash_bytes = avr->flashend + 1u;
-  const avr_flash_t *module = servo_flash_module(avr);
-  if (boot->flash_bytes != flash_bytes || !module) {
+  if (boot->flash_bytes != flash_bytes || !servo_flash_module(avr)) {
     snprintf(err, err_len, "the bootloader was read for %lu B of flash, the MCU has %lu",
              (unsigned long)boot->flash_bytes, (unsigned long)flash_bytes);
     return -1;
   }
-  const uint16_t record_at = boot_record_address((uint16_t)boot->start, module->spm_pagesize);
-  if (app_bytes > record_at) {
-    snprintf(err, err_len, "the application (%lu B) reaches into the application record's page at 0x%04x",
+  const uint16_t record_at = boot_record_address((uint16_t)boot->start);
+  if (app_bytes == 0 || app_bytes > record_at) {
+    snprintf(err, err_len, "the application (%lu B) reaches into the application record at 0x%04x",
              (unsigned long)app_bytes, record_at);
     return -1;
   }
   memcpy(avr->flash + boot->start, boot->flash + boot->start, boot->end - boot->start);
-  uint8_t record[BOOT_RECORD_BYTES];
-  boot_record_build(record, (uint16_t)app_bytes, boot_crc_bytes(BOOT_CRC_INITIAL, avr->flash, (uint16_t)app_bytes));
-  memset(avr->flash + record_at, 0xFF, module->spm_pagesize);
-  memcpy(avr->flash + record_at, record, sizeof record);
+  boot_record_build(avr->flash + record_at, app_bytes, boot_check_bytes(0, avr->flash, app_bytes));
   /* BOOTRST: simavr 1.6's avr_reset() sets the PC (a byte address) to reset_pc. It also zeroes
-   * every I/O register (GPIOR1 and GPIOR2 read 0 after any reset, as on silicon: the
-   * bootloader's request mark is only what the application leaves before jumping) and leaves
-   * SRAM as it was, as silicon does. avr_init() ran its reset already: the first start too. */
+   * every I/O register and leaves SRAM as it was, as silicon does. avr_init() ran its reset
+   * already: the first start too. */
   avr->reset_pc = boot->start;
   avr->pc = boot->start;
   return 0;

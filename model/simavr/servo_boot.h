@@ -27,10 +27,9 @@ void servo_bootloader_free(servo_bootloader_t *boot);
 
 /* At servo_create, the application ELF loaded (app_bytes: its .text + .data from address 0,
  * simavr's flashsize): copies the bootloader's bytes, writes the application record
- * (boot_record_build over flash bytes 0 .. app_bytes - 1, the rest of its page 0xFF) and makes
- * every reset (power-up, watchdog, servo_reset) start at the boot section. -1 with err set
- * when the bootloader is for another flash size or the application reaches into the record's
- * page. */
+ * (boot_record_build with the check value of flash bytes 0 .. app_bytes - 1) and makes every
+ * reset (power-up, watchdog, servo_reset) start at the boot section. -1 with err set when the
+ * bootloader is for another flash size or the application reaches into the record. */
 int servo_boot_attach(struct servo *servo, const servo_bootloader_t *boot, uint32_t app_bytes, char *err,
                       size_t err_len);
 

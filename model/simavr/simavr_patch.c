@@ -126,6 +126,33 @@ void simavr_uart_rx_limiter_reset(struct avr_uart_t *uart) {
   uart->rxc_raise_time = 0;
 }
 
+/* ---- the pending-interrupt list ---- */
+
+/* simavr 1.6's accessors of the list, as sim_interrupts.c defines them (static there). */
+DEFINE_FIFO(avr_int_vector_p, avr_int_pending);
+
+void simavr_interrupts_make_room(struct avr_t *avr) {
+  avr_int_pending_t *const list = &avr->interrupts.pending;
+  if (!avr_int_pending_isfull(list)) {
+    return;
+  }
+  avr_int_vector_p kept[avr_int_pending_fifo_size];
+  unsigned count = 0;
+  while (!avr_int_pending_isempty(list)) {
+    avr_int_vector_p vector = avr_int_pending_read(list);
+    bool listed = false;
+    for (unsigned i = 0; i < count; i++) {
+      listed |= kept[i] == vector;
+    }
+    if (vector->pending && !listed) {
+      kept[count++] = vector;
+    }
+  }
+  for (unsigned i = 0; i < count; i++) {
+    avr_int_pending_write(list, kept[i]);
+  }
+}
+
 /* ---- the gdb stub ---- */
 
 /* simavr 1.6's avr_gdb_t and its breakpoint lists (sim_gdb.c, private there). */

@@ -1,10 +1,10 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* Every place the emulator reaches past simavr 1.6's public API into its internals, in one
  * module: the I/O register handler table, the cycle-timer list, the core's run loop, the
- * external-interrupt module's private poll timers and the USART's read-rate limiter. Each of
- * these exists because simavr 1.6 models the chip imperfectly or too slowly for a bus of
- * servos (docs/emulator.md "simavr 1.6 workarounds" lists the callers and why); a simavr
- * upgrade starts here. This header declares the module without simavr's headers; the run
+ * external-interrupt module's private poll timers, the USART's read-rate limiter and the list
+ * of pending interrupts. Each of these exists because simavr 1.6 models the chip imperfectly
+ * or too slowly for a bus of servos (docs/emulator.md "simavr 1.6 workarounds" lists the
+ * callers and why); a simavr upgrade starts here. This header declares the module without simavr's headers; the run
  * loop, inline because it is the emulator's innermost loop, is in simavr_patch_run.h. */
 #ifndef SIM_SIMAVR_PATCH_H
 #define SIM_SIMAVR_PATCH_H
@@ -82,6 +82,15 @@ void simavr_extint_poll_off(struct avr_t *avr);
  * clears RXC early when the firmware reads faster than its own byte pacing; a byte placed in
  * the FIFO by the bus model resets that limiter, so RXC stays raised while bytes wait. */
 void simavr_uart_rx_limiter_reset(struct avr_uart_t *uart);
+
+/* ---- the pending-interrupt list (avr->interrupts.pending) ----
+ * simavr 1.6 keeps a vector in that list after it is cleared (it only marks it not pending)
+ * and takes entries out only while interrupts are enabled; with them off for long (a
+ * bootloader with an application's Timer1 interrupts left enabled) the 63 places fill, and a
+ * vector raised then is marked pending without being listed: it never interrupts again. When
+ * the list is full, drops its entries that are no longer pending (and repeats). Called before
+ * the USART's raises (uart_link.c). */
+void simavr_interrupts_make_room(struct avr_t *avr);
 
 /* ---- the gdb stub (sim_gdb.c) ----
  * simavr 1.6's stub (avr_gdb_init, avr_gdb_processor) is made for its own run loop, which

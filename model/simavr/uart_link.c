@@ -44,6 +44,7 @@ static sim_cycles_t frame_cycles(const uart_link_t *link) {
 /* The USART's interrupts: simavr's calls, or the same without the calls nobody needs
  * (fast_interrupts.h) when the servo runs the fast core. */
 static void raise_interrupt(const uart_link_t *link, avr_int_vector_t *vector) {
+  simavr_interrupts_make_room(link->avr); /* room in simavr's pending list (simavr_patch.h) */
   if (link->fast_interrupts) {
     (void)fast_raise_interrupt(link->avr, vector);
   } else {
@@ -121,11 +122,22 @@ static void udr_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) {
 
 static void ucsrb_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param) {
   uart_link_t *link = param;
+  avr_uart_t *u = link->uart;
   io_hook_chain(&link->ucsrb_write, avr, addr, v);
   /* simavr 1.6 raises UDRE when UDRIE is set and its own (unused) TX pump is idle, even with
    * a byte waiting in the buffer. */
   if (link->buffer_full) {
     clear_flag(link, &link->uart->udrc);
+  }
+  /* simavr 1.6 workaround: it marks an interrupt pending only when its flag rises while it is
+   * enabled; on silicon RXC and TXC are levels, and enabling RXCIE or TXCIE with the flag set
+   * interrupts at once (a received byte waiting when an application takes over the USART a
+   * bootloader left receiving). */
+  if (avr_regbit_get(avr, u->rxc.enable) && avr_regbit_get(avr, u->rxc.raised)) {
+    raise_interrupt(link, &u->rxc);
+  }
+  if (avr_regbit_get(avr, u->txc.enable) && avr_regbit_get(avr, u->txc.raised)) {
+    raise_interrupt(link, &u->txc);
   }
 }
 

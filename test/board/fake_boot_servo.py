@@ -6,10 +6,13 @@ servo answers as docs/bootloader.md says its bootloader does, or as its applicat
 
 Faults, to see the tool's retries and messages: fault(instruction, kind, times) makes the next
 `times` requests of that instruction (from its `after`-th on) never reach the servo ("lost"),
-lose their answer ("drop"), get an answer with a wrong checksum ("checksum"), or an error byte
-(an int); `silent` answers nothing at all; `status_return_level` 0 makes the application
+never reach it while the answer to the request before comes again ("stale": a late answer to
+an earlier request), lose their answer ("drop"), get an answer with a wrong checksum
+("checksum"), or an error byte (an int); `silent` answers nothing at all; `status_return_level` 0 makes the application
 answer PING only; `other_id_first` sends a status packet of another ID before every answer;
-`read_flip` flips one byte of the READ answers at that flash address.
+`read_flip` flips one byte of the READ answers at that flash address; `boot_busy` makes the
+application answer that many BOOT requests without entering (a store of its settings under
+way).
 
 Every request is recorded in `requests` as (instruction, params).
 """
@@ -19,18 +22,19 @@ import ax12_packets
 from ax12_table import INST_BOOTLOADER as BOOT, INST_PING as PING, INST_READ as READ_DATA
 
 import ax12_app_image
+import ax12_fuses
 
-INFO, BEGIN, PAGE, END, READ, GO = 0x20, 0x21, 0x22, 0x23, 0x24, 0x25  # the bootloader's (docs/bootloader.md)
-SIGNATURES = {"atmega328p": b"\x1e\x95\x0f", "atmega88": b"\x1e\x93\x0a"}
+INFO, PAGE, READ, GO = 0x20, 0x22, 0x24, 0x25  # the bootloader's (docs/bootloader.md)
 
 
 class FakeBootServo:
-    def __init__(self, ident=2, mcu="atmega328p", mode="boot", app_area=0x7800, page=128, knows_boot=True):
+    def __init__(self, ident=2, mcu="atmega328p", mode="boot", knows_boot=True):
+        part = ax12_fuses.MCUS[mcu]
         self.ident, self.mcu, self.mode = ident, mcu, mode
-        self.app_area, self.page_bytes = app_area, page
-        self.flash = bytearray(b"\xff" * app_area)
+        self.app_area, self.page_bytes, self.signature = part.boot_start, part.page_bytes, part.signature
+        self.flash = bytearray(b"\xff" * self.app_area)
         self.knows_boot = knows_boot
-        self.begun = None
+        self.boot_busy = 0
         self.silent = False
         self.other_id_first = False
         self.stays_after_go = False
@@ -39,6 +43,7 @@ class FakeBootServo:
         self.faults = []  # [instruction, kind, after, times]
         self.requests = []
         self.received = bytearray()
+        self.last_answer = b""
         self.timeout = 0.05
         self._out = bytearray()
         self._in = bytearray()
@@ -70,7 +75,9 @@ class FakeBootServo:
             if packet.checksum_ok and packet.ident == self.ident:
                 self.requests.append((packet.code, bytes(packet.params)))
                 self._fault = self._fault_for(packet.code)
-                if self._fault != "lost":
+                if self._fault == "stale":
+                    self._out += self.last_answer
+                elif self._fault != "lost":
                     self._answer(packet.code, bytes(packet.params))
         return len(data)
 
@@ -102,6 +109,7 @@ class FakeBootServo:
         if fault == "checksum":
             packet[-1] ^= 0xFF
         self._out += packet
+        self.last_answer = bytes(packet)
 
     def _answer(self, instruction, params):
         if self.mode == "app":
@@ -120,63 +128,49 @@ class FakeBootServo:
             self._send(0, bytes([12, 0, 1]))
         elif instruction == BOOT and params == b"BOOT" and self.knows_boot:
             self._send(0)
-            self.mode = "boot"
+            if self.boot_busy:
+                self.boot_busy -= 1
+            else:
+                self.mode = "boot"
         else:
             self._send(0x40)
 
     def _record_valid(self):
-        record = self.flash[self.app_area - self.page_bytes:][:8]
-        if record[:4] != b"AXAP":
-            return False
-        length = int.from_bytes(record[4:6], "little")
-        crc = int.from_bytes(record[6:8], "little")
-        return 0 < length <= self.app_area - self.page_bytes and ax12_app_image.crc16(self.flash[:length]) == crc
+        record = self.flash[self.app_area - 4:]
+        last = int.from_bytes(record[:2], "little")
+        return last < self.app_area and ax12_app_image.check_value(self.flash[:last + 1]) == \
+            int.from_bytes(record[2:], "little")
+
+    def _page_of(self, params):
+        """The first byte of the page that holds the address in params, None outside the
+        application area."""
+        address = int.from_bytes(params[:2], "little") & ~(self.page_bytes - 1)
+        return address if address < self.app_area else None
 
     def _answer_as_bootloader(self, instruction, params):
-        record_at = self.app_area - self.page_bytes
-        u16 = lambda at: int.from_bytes(params[at:at + 2], "little")  # noqa: E731
-        if instruction == PING and not params:
+        if instruction in (PING, BOOT):
             self._send(0)
-        elif instruction == INFO and not params:
-            self._send(0, b"AXBL" + bytes([1]) + SIGNATURES[self.mcu] + self.page_bytes.to_bytes(2, "little")
-                       + self.app_area.to_bytes(2, "little") + bytes([int(self._record_valid())]))
-        elif instruction == BEGIN and len(params) == 4:
-            if not 0 < u16(0) <= record_at:
-                return self._send(0x08)
-            self.begun = (u16(0), u16(2))
-            self.flash[record_at:] = b"\xff" * self.page_bytes
-            self._send(0)
-        elif instruction == PAGE and len(params) == 4 + self.page_bytes:
-            address, data = u16(0), params[4:]
-            if self.begun is None or address % self.page_bytes or address >= record_at:
-                return self._send(0x08)
-            if ax12_app_image.crc16(data) != u16(2):
-                return self._send(0x10)
-            self.flash[address:address + self.page_bytes] = data
-            self._send(0)
-        elif instruction == END and not params:
-            if self.begun is None:
-                return self._send(0x08)
-            length, crc = self.begun
-            if ax12_app_image.crc16(self.flash[:length]) != crc:
-                return self._send(0x10)
-            self.flash[record_at:record_at + 8] = b"AXAP" + length.to_bytes(2, "little") + crc.to_bytes(2, "little")
-            self._send(0)
+        elif instruction == INFO:
+            self._send(0, bytes([2]) + self.signature)
+        elif instruction == PAGE:  # its answer carries the address back
+            address = self._page_of(params)
+            if len(params) != 2 + self.page_bytes:
+                return self._send(0x40, params[:2])
+            if address is None:
+                return self._send(0x08, params[:2])
+            self.flash[address:address + self.page_bytes] = params[2:]
+            self._send(0, params[:2])
         elif instruction == READ and len(params) == 2:
-            address = u16(0)
-            if address % self.page_bytes or address >= self.app_area:
+            address = self._page_of(params)
+            if address is None:
                 return self._send(0x08)
             data = bytearray(self.flash[address:address + self.page_bytes])
             if self.read_flip is not None and address <= self.read_flip < address + self.page_bytes:
                 data[self.read_flip - address] ^= 0x01
             self._send(0, bytes(data))
-        elif instruction == GO and not params:
-            if not self._record_valid():
-                return self._send(0x10)
+        elif instruction == GO:
             self._send(0)
-            if not self.stays_after_go:
+            if self._record_valid() and not self.stays_after_go:
                 self.mode = "app"
-        elif instruction == BOOT and params == b"BOOT":
-            self._send(0)
         else:
             self._send(0x40)

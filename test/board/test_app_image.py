@@ -1,8 +1,8 @@
 # SPDX-License-Identifier: GPL-3.0-or-later
 """python/ax12_app_image.py, the application image the bootloader takes (docs/bootloader.md):
-its CRC, its record page, its pages, which part a vector table is for, and the files it
-refuses (not Intel HEX, a bad record checksum, cut short, not from address 0, too large, for
-the other part)."""
+its check value, its record, the pages of an update in their order, which part a vector table
+is for, and the files it refuses (not Intel HEX, a bad record checksum, cut short, not from
+address 0, too large, for the other part)."""
 
 import os
 
@@ -14,7 +14,6 @@ from ax12_app_image import ImageError
 
 FIRMWARE_DIR = os.environ.get("AX12_FIRMWARE_DIR") or os.path.join(
     os.path.dirname(__file__), "..", "..", "build", "firmware")
-AREA_328P, PAGE_328P = 0x7800, 128
 
 
 def jmp_vectors(count=26):
@@ -42,31 +41,44 @@ def write_hex(path, data, offset=0):
     return str(path)
 
 
-def test_crc_known_value():
-    assert image_module.crc16(b"123456789") == 0x29B1
-    assert image_module.crc16(b"") == 0xFFFF
-    assert image_module.crc16(b"56789", image_module.crc16(b"1234")) == 0x29B1, "continues from a CRC"
+def test_check_value_is_fletcher_16_modulo_256():
+    # As firmware/boot/boot_image.c (test/boot/test_boot_image.c: the same values).
+    assert image_module.check_value(b"") == 0x0000
+    assert image_module.check_value(b"\x01\x02") == 0x0403
+    assert image_module.check_value(b"\xff\xff") == 0xFDFE
+    assert image_module.check_value(b"56789", image_module.check_value(b"1234")) == \
+        image_module.check_value(b"123456789"), "continues from a check value"
 
 
-def test_record_page_bytes():
-    page = image_module.record_page(0x1FC4, 0xBEEF, 128)
-    assert page[:8] == bytes([0x41, 0x58, 0x41, 0x50, 0xC4, 0x1F, 0xEF, 0xBE])
-    assert len(page) == 128 and set(page[8:]) == {0xFF}
+def test_record_bytes():
+    assert image_module.record(0x1234, 0xBEEF) == bytes([0x33, 0x12, 0xEF, 0xBE])
 
 
-def test_image_record_page_has_its_length_and_crc(tmp_path):
-    data = jmp_vectors() + bytes(range(7))
-    image = image_module.load(write_hex(tmp_path / "app.hex", data))
-    assert image.data == data
-    assert image.record_page(128) == image_module.record_page(len(data), image_module.crc16(data), 128)
+def update_addresses(pages):
+    return [address for address, _ in pages]
 
 
-def test_pages_are_padded_with_ff(tmp_path):
+def test_update_pages_erase_the_record_first_and_write_it_last(tmp_path):
     data = jmp_vectors() + bytes(range(200))  # 304 B: two whole pages and 48 bytes
-    pages = image_module.load(write_hex(tmp_path / "app.hex", data)).pages(128)
-    assert [address for address, _ in pages] == [0, 128, 256]
+    image = image_module.load(write_hex(tmp_path / "app.hex", data))
+    pages = image.update_pages("atmega328p")
+    assert update_addresses(pages) == [0x7D80, 0, 128, 256, 0x7D80]
     assert all(len(page) == 128 for _, page in pages)
-    assert b"".join(page for _, page in pages) == data + b"\xff" * 80
+    assert b"".join(page for _, page in pages[1:4]) == data + b"\xff" * 80
+    assert pages[0][1] == b"\xff" * 128, "the record erased"
+    assert pages[-1][1] == b"\xff" * 124 + image_module.record(304, image_module.check_value(data))
+    flash = image.flash_bytes("atmega328p")
+    assert len(flash) == 0x7E00 and flash[:304] == data and flash[0x7DFC:] == pages[-1][1][-4:]
+
+
+def test_an_image_that_reaches_the_record_page_is_written_there_first_without_the_record(tmp_path):
+    data = rjmp_vectors() + bytes(i & 0xFF for i in range(0x1DFC - 52))  # up to the record: 7676 B
+    image = image_module.load(write_hex(tmp_path / "app.hex", data))
+    image.check_target("atmega88")
+    pages = image.update_pages("atmega88")
+    assert update_addresses(pages) == [0x1DC0] + list(range(0, 0x1DC0, 64)) + [0x1DC0]
+    assert pages[0][1] == data[0x1DC0:] + b"\xff" * 4
+    assert pages[-1][1] == data[0x1DC0:] + image_module.record(len(data), image_module.check_value(data))
 
 
 def test_gaps_read_as_erased_flash(tmp_path):
@@ -102,22 +114,22 @@ def test_signatures_name_the_parts():
 def test_image_for_the_other_part_refused(tmp_path):
     image = image_module.load(os.path.join(FIRMWARE_DIR, "ax12-ax12-atmega88.hex"))
     with pytest.raises(ImageError, match="built for the atmega88, the servo is an atmega328p"):
-        image.check_target("atmega328p", AREA_328P, PAGE_328P)
+        image.check_target("atmega328p")
 
 
 def test_image_that_is_no_application_refused(tmp_path):
     image = image_module.load(write_hex(tmp_path / "data.hex", bytes(range(256))))
     with pytest.raises(ImageError, match="not an AVR vector table"):
-        image.check_target("atmega328p", AREA_328P, PAGE_328P)
+        image.check_target("atmega328p")
 
 
-def test_image_up_to_the_record_page_accepted_one_byte_more_refused(tmp_path):
-    fits = jmp_vectors() + b"\x00" * (0x7780 - 104)
-    image_module.load(write_hex(tmp_path / "fits.hex", fits)).check_target("atmega328p", AREA_328P, PAGE_328P)
+def test_image_up_to_the_record_accepted_one_byte_more_refused(tmp_path):
+    fits = jmp_vectors() + b"\x00" * (0x7DFC - 104)
+    image_module.load(write_hex(tmp_path / "fits.hex", fits)).check_target("atmega328p")
     too_large = image_module.load(write_hex(tmp_path / "big.hex", fits + b"\x00"))
-    with pytest.raises(ImageError, match=r"30593 B, more than the atmega328p's application area 0x0000-0x77FF: "
-                                         r"the image 0x0000-0x777F \(30592 B at most\)"):
-        too_large.check_target("atmega328p", AREA_328P, PAGE_328P)
+    with pytest.raises(ImageError, match=r"32253 B, more than the atmega328p's application area 0x0000-0x7DFF: "
+                                         r"the image 0x0000-0x7DFB \(32252 B at most\), its record 0x7DFC-0x7DFF"):
+        too_large.check_target("atmega328p")
 
 
 def test_not_a_hex_file_refused(tmp_path):

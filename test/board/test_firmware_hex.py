@@ -2,9 +2,12 @@
 """Every firmware build's Intel HEX (firmware/hex.cmake) against its ELF: valid records, the
 same bytes as the ELF's .text + .data, inside the MCU's application area
 (python/ax12_fuses.py), and an -eeprom.hex exactly when the ELF has an .eeprom section.
-The ATmega328P's merged HEX (cmake/firmware.cmake, scripts/ax12_merge_hex.py): the same
-application bytes, a valid application record, the bootloader's bytes in the boot section;
-and the merge script on its own, with a stand-in bootloader HEX."""
+The merged HEX of each part whose application sits beside the bootloader (cmake/firmware.cmake,
+scripts/ax12_merge_hex.py): the same application bytes, a valid application record, the
+bootloader's bytes in the boot section; the merge script on its own, with a stand-in
+bootloader HEX; the bootloader's HEX inside the 512 B boot section on both parts; and the
+parts with a bootloader the same in the build (firmware/bootable_mcus.cmake) and in
+python/ax12_fuses.py."""
 
 import os
 import subprocess
@@ -20,7 +23,8 @@ FIRMWARE_DIR = os.environ.get("AX12_FIRMWARE_DIR") or os.path.join(
     os.path.dirname(__file__), "..", "..", "build", "firmware")
 OBJCOPY = os.environ.get("AX12_OBJCOPY") or "avr-objcopy"
 BUILDS = [(profile, mcu) for mcu in ax12_fuses.MCUS for profile in ("ax12", "ax12a")]
-MERGE = os.path.join(os.path.dirname(__file__), "..", "..", "scripts", "ax12_merge_hex.py")
+REPO = os.path.join(os.path.dirname(__file__), "..", "..")
+MERGE = os.path.join(REPO, "scripts", "ax12_merge_hex.py")
 BOOT_HEX_328P = os.path.join(FIRMWARE_DIR, "ax12-boot-atmega328p.hex")
 
 
@@ -51,9 +55,10 @@ def section_sizes(elf):
     return sizes
 
 
-def check_records(path):
+def check_records(path, start=None):
     """Every line a record with a valid checksum, data and end-of-file records only (16-bit
-    addresses suffice below 64 KB), the end-of-file record last."""
+    addresses suffice below 64 KB), the end-of-file record last; and, with start, one start
+    address record (type 03) of that byte address (the bootloader's: where BOOTRST starts)."""
     lines = open(path).read().splitlines()
     assert lines, f"{path} is empty"
     for number, line in enumerate(lines, 1):
@@ -62,6 +67,9 @@ def check_records(path):
         assert len(raw) == raw[0] + 5, f"{path}:{number}: length byte disagrees with the record"
         assert sum(raw) % 256 == 0, f"{path}:{number}: bad checksum"
         kind = raw[3]
+        if kind == 0x03 and start is not None:
+            assert int.from_bytes(raw[4:8], "big") == start, f"{path}:{number}: start address"
+            continue
         assert kind in (0x00, 0x01), f"{path}:{number}: record type {kind:02X}"
         assert (kind == 0x01) == (number == len(lines)), f"{path}:{number}: end-of-file record misplaced"
 
@@ -96,30 +104,43 @@ def test_eeprom_hex_only_with_an_eeprom_section(profile, mcu, tmp_path):
     assert image.tobinstr(start=0, size=len(expected)) == expected
 
 
-def check_merged(merged_path, app_hex_path, boot_hex_path, app_bytes=None):
+def check_merged(merged_path, app_hex_path, boot_hex_path, app_bytes=None, mcu="atmega328p"):
     """merged_path holds the application HEX's bytes unchanged (app_bytes too, when given),
-    a record page whose length and CRC are those of the flash below it, and the bootloader's
-    bytes from 0x7800 on, and nothing else."""
-    part = ax12_fuses.MCUS["atmega328p"]
-    boot_start = part.flash_bytes - part.boot_section_bytes
-    record_at = boot_start - part.page_bytes
+    a record whose last address and check value are those of the flash below it, and the
+    bootloader's bytes in the boot section, and nothing else."""
+    part = ax12_fuses.MCUS[mcu]
     check_records(merged_path)
     merged, app, boot = IntelHex(merged_path), IntelHex(app_hex_path), IntelHex(boot_hex_path)
     app_data = app.tobinstr(start=0, size=len(app))
     if app_bytes is not None:
         assert app_data == app_bytes
     assert merged.tobinstr(start=0, size=len(app_data)) == app_data
-    record = merged.tobinstr(start=record_at, size=part.page_bytes)
-    assert record[:4] == b"AXAP"
-    length, crc = int.from_bytes(record[4:6], "little"), int.from_bytes(record[6:8], "little")
-    assert length == len(app_data)
-    assert crc == ax12_app_image.crc16(merged.tobinstr(start=0, size=length)), "the record's CRC is the flash's"
-    assert set(record[8:]) == {0xFF}
-    assert boot.minaddr() >= boot_start
+    record = merged.tobinstr(start=part.record_at, size=ax12_fuses.RECORD_BYTES)
+    last, check = int.from_bytes(record[:2], "little"), int.from_bytes(record[2:], "little")
+    assert last + 1 == len(app_data)
+    assert check == ax12_app_image.check_value(merged.tobinstr(start=0, size=last + 1)), "the flash's check value"
+    assert boot.minaddr() >= part.boot_start
     assert merged.tobinstr(start=boot.minaddr(), end=boot.maxaddr()) == boot.tobinstr(start=boot.minaddr(),
                                                                                        end=boot.maxaddr())
-    expected = set(app.addresses()) | set(range(record_at, boot_start)) | set(boot.addresses())
+    expected = set(app.addresses()) | set(range(part.record_at, part.boot_start)) | set(boot.addresses())
     assert set(merged.addresses()) == expected, "bytes outside application, record and bootloader"
+
+
+@pytest.mark.parametrize("mcu", sorted(ax12_fuses.MCUS))
+def test_the_bootloader_hex_fits_the_boot_section(mcu):
+    part = ax12_fuses.MCUS[mcu]
+    path = os.path.join(FIRMWARE_DIR, f"ax12-boot-{mcu}.hex")
+    check_records(path, start=part.boot_start)
+    boot = IntelHex(path)
+    assert boot.minaddr() == part.boot_start and boot.maxaddr() < part.flash_bytes
+    assert part.boot_start == part.flash_bytes - 512
+
+
+def test_the_parts_with_a_bootloader_agree():
+    text = open(os.path.join(REPO, "firmware", "bootable_mcus.cmake")).read()
+    listed = [line for line in text.splitlines() if line.startswith("set(AX12_BOOTABLE_MCUS")]
+    assert len(listed) == 1
+    assert set(listed[0][len("set(AX12_BOOTABLE_MCUS"):].strip(" )").split()) == ax12_fuses.BOOTLOADER_MCUS
 
 
 @pytest.mark.parametrize("profile", ["ax12", "ax12a"])
@@ -137,7 +158,7 @@ def merge(*args):
                           capture_output=True, text=True, timeout=60)
 
 
-def stand_in_bootloader(path, first=0x7800, size=600):
+def stand_in_bootloader(path, first=0x7E00, size=500):
     boot = IntelHex()
     boot.frombytes(bytes((7 * i) & 0xFF for i in range(size)), offset=first)
     boot.write_hex_file(str(path))
@@ -166,8 +187,8 @@ def test_merge_script_without_a_bootloader_writes_nothing(tmp_path):
 
 
 @pytest.mark.parametrize("app_profile_mcu,boot_first,message", [
-    (("ax12", "atmega88"), 0x7800, "built for the atmega88"),
-    (("ax12", "atmega328p"), 0x7700, "must lie in the boot section"),
+    (("ax12", "atmega88"), 0x7E00, "built for the atmega88"),
+    (("ax12", "atmega328p"), 0x7D00, "must lie in the boot section"),
 ])
 def test_merge_script_refuses(tmp_path, app_profile_mcu, boot_first, message):
     _, app_hex, _ = paths(*app_profile_mcu)

@@ -2,10 +2,10 @@
 """`scripts/ax12 flash` (scripts/ax12_flash.py) against a servo without a simulator
 (test/board/fake_boot_servo.py): the steps and what is written, the way into the bootloader
 from a running application, retries and giving up, other IDs' answers ignored, verify, and
-what it refuses (exit 2: bad files, files for a part without a bootloader or too large for
-their part's application area, all before the port is opened; a file the servo's bootloader
-does not take, after which a servo this command asked in runs its application again; bad
-arguments; exit 1: a servo that does not answer or cannot take it, a port lost mid-update).
+what it refuses (exit 2: bad files, files too large for their part's application area (a
+merged HEX), all before the port is opened; a file for another part than the servo's, after
+which a servo this command asked in runs its application again; bad arguments; exit 1: a servo
+that does not answer or cannot take it, a port lost mid-update).
 The same command against the emulated servos: test_flash_emulated.py."""
 
 import os
@@ -23,8 +23,8 @@ ax12_build.ensure(os.path.join(REPO, "build"))
 
 import ax12_app_image  # noqa: E402
 import ax12_flash  # noqa: E402
-import fake_boot_servo  # noqa: E402
-from fake_boot_servo import BEGIN, BOOT, END, GO, INFO, PAGE, PING, READ, FakeBootServo  # noqa: E402
+import ax12_packets  # noqa: E402
+from fake_boot_servo import BOOT, GO, INFO, PAGE, PING, READ, FakeBootServo  # noqa: E402
 
 FIRMWARE_DIR = os.environ.get("AX12_FIRMWARE_DIR") or os.path.join(REPO, "build", "firmware")
 HEX_328P = os.path.join(FIRMWARE_DIR, "ax12-ax12a-atmega328p.hex")
@@ -56,9 +56,12 @@ def instructions(servo):
 
 def assert_written(servo, hex_path=HEX_328P):
     image = ax12_app_image.load(hex_path)
-    assert bytes(servo.flash[:len(image.data)]) == image.data
+    assert bytes(servo.flash) == image.flash_bytes(servo.mcu)
     assert servo._record_valid()
-    assert bytes(servo.flash[0x7780:0x7800]) == image.record_page(128)
+
+
+def page_addresses(servo):
+    return [int.from_bytes(params[:2], "little") for (i, params) in servo.requests if i == PAGE]
 
 
 def test_a_servo_in_its_bootloader_is_written_verified_and_started(capsys):
@@ -68,18 +71,35 @@ def test_a_servo_in_its_bootloader_is_written_verified_and_started(capsys):
     assert code == 0, err
     assert opened == [("/dev/fake", 1000000)]
     assert_written(servo)
-    pages = len(ax12_app_image.load(HEX_328P).pages(128))
+    image_pages = -(-len(ax12_app_image.load(HEX_328P).data) // 128)
     sent = instructions(servo)
-    assert sent[:2] == [INFO, BEGIN]
-    assert sent[2:2 + pages] == [PAGE] * pages
-    assert sent[2 + pages] == END
-    assert sent[3 + pages:3 + 2 * pages + 1] == [READ] * (pages + 1), "every page and the record read back"
-    assert sent[3 + 2 * pages + 1] == GO
-    assert [address for (i, params) in servo.requests if i == PAGE
-            for address in [int.from_bytes(params[:2], "little")]] == [128 * n for n in range(pages)]
+    assert sent[0] == INFO
+    assert sent[1:1 + image_pages + 2] == [PAGE] * (image_pages + 2)
+    # The record's page first (its record erased) and last (with it), the image between.
+    assert page_addresses(servo) == [0x7D80] + [128 * n for n in range(image_pages)] + [0x7D80]
+    go = sent.index(GO)
+    assert sent[1 + image_pages + 2:go] == [READ] * (image_pages + 1), "every page written read back"
+    assert sent[go + 1:] == [PING, 0x02], "the application's PING and READ of its identity"
     assert servo.mode == "app" and servo.closed
     assert "written" in out and "verified" in out and "Model Number 12, Firmware Version 1" in out
-    assert "bootloader 1 on an atmega328p" in err and "application not valid" in err
+    assert "bootloader 2 on an atmega328p" in err and "application area 0x0000-0x7DFF" in err
+
+
+def test_the_record_is_erased_by_the_first_write_and_written_by_the_last(capsys):
+    servo = FakeBootServo()
+    seen = []
+    answer = servo._answer_as_bootloader
+
+    def watch(instruction, params):
+        answer(instruction, params)
+        if instruction == PAGE:
+            seen.append(servo._record_valid())
+    servo._answer_as_bootloader = watch
+    servo.flash[:] = ax12_app_image.load(HEX_328P).flash_bytes("atmega328p")  # valid before
+    assert servo._record_valid()
+    code, _ = flash(servo, "--no-verify")
+    assert code == 0, capsys.readouterr().err
+    assert seen == [False] * (len(seen) - 1) + [True]
 
 
 def test_a_running_application_is_asked_into_the_bootloader(capsys):
@@ -91,12 +111,21 @@ def test_a_running_application_is_asked_into_the_bootloader(capsys):
     assert_written(servo)
 
 
+def test_an_application_storing_its_settings_is_asked_again(capsys):
+    servo = FakeBootServo(mode="app")
+    servo.boot_busy = 2
+    code, _ = flash(servo)
+    assert code == 0, capsys.readouterr().err
+    assert instructions(servo)[:7] == [INFO, BOOT, INFO, BOOT, INFO, BOOT, INFO]
+    assert_written(servo)
+
+
 def test_an_application_without_the_boot_request_is_an_error(capsys):
     servo = FakeBootServo(mode="app", knows_boot=False)
     code, _ = flash(servo)
     assert code == 1
     assert "does not know instruction 0x0A" in capsys.readouterr().err
-    assert BEGIN not in instructions(servo)
+    assert PAGE not in instructions(servo)
 
 
 def test_a_silent_servo_is_an_error_naming_its_id_and_baud(capsys):
@@ -107,14 +136,36 @@ def test_a_silent_servo_is_an_error_naming_its_id_and_baud(capsys):
     assert "servo 2 does not answer at 57600 bps" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("kind", ["drop", "checksum", 0x10, 0x20])
+@pytest.mark.parametrize("kind", ["drop", "checksum", 0x20])
 def test_a_page_is_sent_again_after_a_lost_garbled_or_failed_answer(capsys, kind):
     servo = FakeBootServo()
     servo.fault(PAGE, kind, times=2, after=5)
     code, _ = flash(servo)
     assert code == 0, capsys.readouterr().err
-    pages = len(ax12_app_image.load(HEX_328P).pages(128))
-    assert instructions(servo).count(PAGE) == pages + 2
+    writes = len(ax12_app_image.load(HEX_328P).update_pages("atmega328p"))
+    assert instructions(servo).count(PAGE) == writes + 2
+    assert_written(servo)
+
+
+def test_a_request_sent_again_comes_after_bytes_that_end_any_packet_the_servo_took_up(capsys):
+    servo = FakeBootServo()
+    servo.fault(PAGE, "drop", times=1, after=3)
+    code, _ = flash(servo)
+    assert code == 0, capsys.readouterr().err
+    dropped = ax12_packets.instruction_packet(2, PAGE, [*servo.requests[4][1]])  # its answer lost
+    received = bytes(servo.received)
+    at = received.index(dropped, received.index(dropped) + 1)  # sent again
+    assert received[at - 256:at] == bytes(256), "256 bytes of 0x00 before it"
+    assert received.count(bytes(256)) == 1, "only before the one sent again"
+
+
+def test_a_late_answer_to_the_page_before_is_not_taken_for_this_one(capsys):
+    servo = FakeBootServo()
+    servo.fault(PAGE, "stale", times=1, after=6)
+    code, _ = flash(servo)
+    assert code == 0, capsys.readouterr().err
+    writes = len(ax12_app_image.load(HEX_328P).update_pages("atmega328p"))
+    assert instructions(servo).count(PAGE) == writes + 1, "the page whose answer was another's is sent again"
     assert_written(servo)
 
 
@@ -124,7 +175,7 @@ def test_a_page_that_keeps_failing_is_given_up_after_the_retries(capsys):
     code, _ = flash(servo, "--retries", "2")
     err = capsys.readouterr().err
     assert code == 1
-    assert "PAGE 0x0080: ID 2: no answer within 0.1 s (3 attempts)" in err
+    assert "PAGE 0x0000: ID 2: no answer within 0.1 s (3 attempts)" in err
     assert instructions(servo).count(PAGE) == 1 + 3
     assert GO not in instructions(servo)
 
@@ -134,18 +185,18 @@ def test_a_range_error_is_not_retried(capsys):
     servo.fault(PAGE, 0x08, times=1)
     code, _ = flash(servo)
     assert code == 1
-    assert "PAGE 0x0000: servo 2 answered with address or length outside the application area" in \
-        capsys.readouterr().err
+    assert "PAGE 0x7D80: servo 2 answered with address outside the application area" in capsys.readouterr().err
     assert instructions(servo).count(PAGE) == 1
 
 
-def test_an_image_crc_mismatch_at_end_is_an_error_and_no_go(capsys):
-    servo = FakeBootServo()
-    servo.fault(END, 0x10)
+def test_a_bootloader_of_another_version_is_refused(capsys, monkeypatch):
+    servo = FakeBootServo()  # its INFO: version 1
+    monkeypatch.setattr(servo, "_answer_as_bootloader",
+                        lambda i, p: servo._send(0, bytes([1]) + servo.signature) if i == INFO else None)
     code, _ = flash(servo)
     assert code == 1
-    assert "END: servo 2 answered with CRC does not match" in capsys.readouterr().err
-    assert instructions(servo).count(END) == 1 and GO not in instructions(servo)
+    assert "bootloader is version 1; this tool writes to version 2" in capsys.readouterr().err
+    assert PAGE not in instructions(servo)
 
 
 def test_status_packets_of_other_ids_are_ignored(capsys):
@@ -179,7 +230,8 @@ def test_a_servo_still_in_its_bootloader_after_go_is_an_error(capsys):
     servo.stays_after_go = True
     code, _ = flash(servo)
     assert code == 1
-    assert "still in its bootloader after GO" in capsys.readouterr().err
+    assert "still in its bootloader after GO (4 attempts): the application in its flash is not valid" in \
+        capsys.readouterr().err
 
 
 def test_a_lost_go_is_sent_again(capsys):
@@ -196,29 +248,29 @@ def test_an_application_at_status_return_level_0_is_asked_in_and_started(capsys)
     code, _ = flash(servo)
     out, err = capsys.readouterr()
     assert code == 0, err
-    assert instructions(servo)[:6] == [INFO, INFO, PING, BOOT, INFO, BEGIN]
+    assert instructions(servo)[:6] == [INFO, INFO, PING, BOOT, INFO, PAGE]
     assert_written(servo)
     assert "it answers PING, not READ (Status Return Level 0)" in out
 
 
-def test_an_image_for_a_part_without_a_bootloader_is_refused_before_the_port_is_opened(capsys):
-    servo = FakeBootServo(mode="app")
-    code, opened = flash(servo, hex_path=HEX_88)
+def test_an_image_for_the_other_part_is_refused_before_a_write(capsys):
+    servo = FakeBootServo()
+    code, _ = flash(servo, hex_path=HEX_88)
     assert code == 2
-    assert "built for the atmega88, which has no bootloader" in capsys.readouterr().err
-    assert opened == [] and servo.received == b"", "no servo is asked into its bootloader"
+    assert "built for the atmega88, the servo is an atmega328p" in capsys.readouterr().err
+    assert instructions(servo) == [INFO]
 
 
 def test_an_image_larger_than_its_parts_application_area_is_refused_before_the_port_is_opened(capsys, tmp_path):
     image = IntelHex(HEX_328P)
-    image[0x7780] = 0x00  # the record page
+    image[0x7DFC] = 0x00  # the record
     big = tmp_path / "big.hex"
     image.write_hex_file(str(big))
     servo = FakeBootServo(mode="app")
     code, opened = flash(servo, hex_path=str(big))
     assert code == 2
     err = capsys.readouterr().err
-    assert "is 30593 B, more than the atmega328p's application area 0x0000-0x77FF: the image 0x0000-0x777F" in err
+    assert "is 32253 B, more than the atmega328p's application area 0x0000-0x7DFF: the image 0x0000-0x7DFB" in err
     assert opened == [] and servo.received == b""
 
 
@@ -231,49 +283,47 @@ def test_a_merged_hex_is_refused_before_the_port_is_opened_naming_the_file_flash
     assert opened == [] and servo.received == b""
 
 
-def running_application(app_area):
-    """A servo running a valid application in an application area of app_area bytes."""
-    servo = FakeBootServo(mode="app", app_area=app_area)
+def running_application(mcu="atmega328p"):
+    """A servo of that part running a valid application."""
+    servo = FakeBootServo(mode="app", mcu=mcu)
     app = bytes(range(256)) * 4
     servo.flash[:len(app)] = app
-    record_at = app_area - servo.page_bytes
-    servo.flash[record_at:record_at + 8] = b"AXAP" + len(app).to_bytes(2, "little") + \
-        ax12_app_image.crc16(app).to_bytes(2, "little")
+    servo.flash[-4:] = ax12_app_image.record(len(app), ax12_app_image.check_value(app))
     assert servo._record_valid()
     return servo
 
 
-def too_small_area():
-    """An application area (whole pages) the image of HEX_328P does not fit."""
-    return len(ax12_app_image.load(HEX_328P).data) // 128 * 128
-
-
 def test_a_servo_refused_after_it_entered_its_bootloader_runs_its_application_again(capsys):
-    servo = running_application(too_small_area())
+    servo = running_application("atmega88")  # and the file is the ATmega328P's
     code, _ = flash(servo)
     err = capsys.readouterr().err
     assert code == 2, err
+    assert "built for the atmega328p, the servo is an atmega88" in err
     sent = instructions(servo)
-    assert sent[:3] == [INFO, BOOT, INFO] and BEGIN not in sent
+    assert sent[:3] == [INFO, BOOT, INFO] and PAGE not in sent
     assert sent[3] == GO, "GO right after the refusal"
     assert servo.mode == "app", "the servo left its bootloader"
     assert "nothing written; its application runs again" in err
 
 
-def test_the_application_area_has_one_wording_in_the_steps_and_the_refusal(capsys):
-    size = too_small_area()
-    servo = running_application(size)
-    flash(servo)
-    err = capsys.readouterr().err
-    area = "application area 0x0000-0x%04X: the image 0x0000-0x%04X (%d B at most), its record 0x%04X-0x%04X" % (
-        size - 1, size - 129, size - 128, size - 128, size - 1)
-    assert err.count(area) == 2, err
+def test_the_application_area_has_one_wording_in_the_steps_and_the_refusal(capsys, tmp_path):
+    area = "application area 0x0000-0x7DFF: the image 0x0000-0x7DFB (32252 B at most), its record 0x7DFC-0x7DFF"
+    assert ax12_app_image.area_text("atmega328p") == area
+    code, _ = flash(FakeBootServo())
+    steps = capsys.readouterr().err
+    assert code == 0 and steps.count(area) == 1, steps
+    image = IntelHex(HEX_328P)
+    image[0x7DFC] = 0x00
+    big = tmp_path / "big.hex"
+    image.write_hex_file(str(big))
+    flash(FakeBootServo(), hex_path=str(big))
+    refusal = capsys.readouterr().err
+    assert refusal.count(area) == 1, refusal
 
 
-def test_an_unknown_part_after_entry_is_refused_and_the_application_started_again(capsys, monkeypatch):
-    servo = running_application(0x7800)
-    servo.mcu = "unknown"
-    monkeypatch.setitem(fake_boot_servo.SIGNATURES, "unknown", b"\x1e\x00\x00")
+def test_an_unknown_part_after_entry_is_refused_and_the_application_started_again(capsys):
+    servo = running_application()
+    servo.signature = b"\x1e\x00\x00"
     code, _ = flash(servo)
     err = capsys.readouterr().err
     assert code == 1
@@ -281,14 +331,14 @@ def test_an_unknown_part_after_entry_is_refused_and_the_application_started_agai
     assert instructions(servo)[3] == GO and servo.mode == "app"
 
 
-def test_ctrl_c_after_entry_and_before_begin_starts_the_application_again(capsys, monkeypatch):
+def test_ctrl_c_after_entry_and_before_the_first_page_starts_the_application_again(capsys, monkeypatch):
     def interrupted(*_):
         raise KeyboardInterrupt
     monkeypatch.setattr(ax12_app_image, "mcu_of_signature", interrupted)
-    servo = running_application(0x7800)
+    servo = running_application()
     code, _ = flash(servo)
     assert code == 1
-    assert servo.mode == "app" and BEGIN not in instructions(servo)
+    assert servo.mode == "app" and PAGE not in instructions(servo)
     assert "its application runs again" in capsys.readouterr().err
 
 

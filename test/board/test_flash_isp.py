@@ -18,13 +18,13 @@ REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 BUILD = os.path.abspath(os.environ.get("AX12_BUILD_DIR") or os.path.join(REPO, "build"))
 FRONT_DOOR = os.path.join(REPO, "scripts", "ax12")
 
-EXPECTED_FUSES = {  # application only: BOOTRST unprogrammed
-    "atmega88": {"lfuse": 0xD7, "hfuse": 0xD4, "efuse": 0xF9},
-    "atmega328p": {"lfuse": 0xD7, "hfuse": 0xD3, "efuse": 0xFC},
+EXPECTED_FUSES = {  # application only: BOOTRST unprogrammed; a 512 B boot section on both
+    "atmega88": {"lfuse": 0xD7, "hfuse": 0xD4, "efuse": 0xFD},   # BOOTSZ 10
+    "atmega328p": {"lfuse": 0xD7, "hfuse": 0xD7, "efuse": 0xFC},  # BOOTSZ 11
 }
-EXPECTED_WITH_BOOT = {  # BOOTRST programmed; the 328P's 2 KB boot section: BOOTSZ 01
-    "atmega88": {"lfuse": 0xD7, "hfuse": 0xD4, "efuse": 0xF8},
-    "atmega328p": {"lfuse": 0xD7, "hfuse": 0xD2, "efuse": 0xFC},
+EXPECTED_WITH_BOOT = {  # BOOTRST programmed
+    "atmega88": {"lfuse": 0xD7, "hfuse": 0xD4, "efuse": 0xFC},
+    "atmega328p": {"lfuse": 0xD7, "hfuse": 0xD6, "efuse": 0xFC},
 }
 
 
@@ -54,7 +54,7 @@ def test_dry_run_command_line(mcu, part, profile):
     assert option(words, "-p") == part
     assert option(words, "-c") == "usbasp"
     assert option(words, "-P") == "usb"
-    # The ATmega328P gets its bootloader: the merged HEX, BOOTRST programmed.
+    # A part with its bootloader (ax12_fuses.BOOTLOADER_MCUS): the merged HEX, BOOTRST programmed.
     boot = mcu in ax12_fuses.BOOTLOADER_MCUS
     hex_path = os.path.join(BUILD, "firmware", f"ax12-{profile}-{mcu}{'-merged' if boot else ''}.hex")
     fuses = (EXPECTED_WITH_BOOT if boot else EXPECTED_FUSES)[mcu]
@@ -67,35 +67,36 @@ def test_defaults_and_other_hex(tmp_path):
     run = flash_isp("--programmer", "avrisp2", "--dry-run")
     words, ops = operations(run.stdout)
     assert option(words, "-p") == "m88" and "-P" not in words
-    assert ops[0] == "flash:w:" + os.path.join(BUILD, "firmware", "ax12-ax12-atmega88.hex") + ":i"
+    # the ATmega88 carries the bootloader: its whole flash, the merged HEX
+    assert ops[0] == "flash:w:" + os.path.join(BUILD, "firmware", "ax12-ax12-atmega88-merged.hex") + ":i"
     own = tmp_path / "mine.hex"
     shutil.copy(os.path.join(BUILD, "firmware", "ax12-ax12a-atmega328p.hex"), own)
     run = flash_isp("--programmer", "avrisp2", "--mcu", "atmega328p", "--hex", str(own), "--dry-run")
     assert run.returncode == 0, run.stderr
     ops = operations(run.stdout)[1]
     assert ops[0] == f"flash:w:{own}:i"
-    assert ops[2] == "hfuse:w:0xD3:m", "an application alone: BOOTRST unprogrammed"
+    assert ops[2] == "hfuse:w:0xD7:m", "an application alone: BOOTRST unprogrammed"
     merged = tmp_path / "whole.hex"
     shutil.copy(os.path.join(BUILD, "firmware", "ax12-ax12a-atmega328p-merged.hex"), merged)
     run = flash_isp("--programmer", "avrisp2", "--mcu", "atmega328p", "--hex", str(merged), "--dry-run")
     assert run.returncode == 0, run.stderr
-    assert operations(run.stdout)[1][2] == "hfuse:w:0xD2:m", "a whole flash with its bootloader: BOOTRST programmed"
+    assert operations(run.stdout)[1][2] == "hfuse:w:0xD6:m", "a whole flash with its bootloader: BOOTRST programmed"
 
 
 def test_app_only_on_a_part_with_a_bootloader():
     run = flash_isp("--programmer", "usbasp", "--mcu", "atmega328p", "--app-only", "--dry-run")
     assert run.returncode == 0, run.stderr
     assert operations(run.stdout)[1] == ["flash:w:" + os.path.join(BUILD, "firmware", "ax12-ax12-atmega328p.hex") + ":i",
-                                         "lfuse:w:0xD7:m", "hfuse:w:0xD3:m", "efuse:w:0xFC:m"]
+                                         "lfuse:w:0xD7:m", "hfuse:w:0xD7:m", "efuse:w:0xFC:m"]
 
 
 def test_fuses_only():
     run = flash_isp("--programmer", "usbasp", "--mcu", "atmega328p", "--fuses-only", "--dry-run")
     assert run.returncode == 0, run.stderr
     words, ops = operations(run.stdout)
-    assert ops == ["lfuse:w:0xD7:m", "hfuse:w:0xD2:m", "efuse:w:0xFC:m"]
+    assert ops == ["lfuse:w:0xD7:m", "hfuse:w:0xD6:m", "efuse:w:0xFC:m"]
     run = flash_isp("--programmer", "usbasp", "--mcu", "atmega328p", "--fuses-only", "--app-only", "--dry-run")
-    assert operations(run.stdout)[1] == ["lfuse:w:0xD7:m", "hfuse:w:0xD3:m", "efuse:w:0xFC:m"]
+    assert operations(run.stdout)[1] == ["lfuse:w:0xD7:m", "hfuse:w:0xD7:m", "efuse:w:0xFC:m"]
 
 
 def test_fuse_bytes():
@@ -105,7 +106,7 @@ def test_fuse_bytes():
         fields = ax12_fuses.fuse_fields(mcu)
         high = fields["hfuse"]
         boot_size = fields["efuse" if mcu == "atmega88" else "hfuse"]["BOOTSZ"]
-        assert boot_size == {"atmega88": 0b00, "atmega328p": 0b01}[mcu], "a 2 KB boot section on both parts"
+        assert boot_size == {"atmega88": 0b10, "atmega328p": 0b11}[mcu], "a 512 B boot section (256 words) on both"
         assert high["SPIEN"] == 0 and high["EESAVE"] == 0 and high["WDTON"] == 1
         assert high["RSTDISBL"] == 1 and high["DWEN"] == 1
 
@@ -158,17 +159,17 @@ def test_bad_checksum(tmp_path):
     refused(flash_isp("--programmer", "usbasp", "--hex", str(bad), "--dry-run"), "is not an Intel HEX file")
 
 
-@pytest.mark.parametrize("address", [0x7780, 0x7800])
+@pytest.mark.parametrize("address", [0x7DFC, 0x7E00])
 def test_image_past_the_application_area(tmp_path, address):
-    # One data byte in the ATmega328P's application record page (0x7780) or its boot section
-    # (0x7800): neither belongs to the application image.
+    # One data byte in the ATmega328P's application record (0x7DFC) or its boot section
+    # (0x7E00): neither belongs to the application image.
     record = bytes([1, address >> 8, address & 0xFF, 0x00, 0xAA])
     line = ":" + (record + bytes([(-sum(record)) & 0xFF])).hex().upper()
     big = tmp_path / "big.hex"
     big.write_text(line + "\n:00000001FF\n")
     refused(flash_isp("--programmer", "usbasp", "--mcu", "atmega328p", "--hex", str(big), "--app-only", "--dry-run"),
             "outside the atmega328p's application area")
-    if address >= 0x7800:  # bytes in the boot section but no application from 0: no whole flash either
+    if address >= 0x7E00:  # bytes in the boot section but no application from 0: no whole flash either
         refused(flash_isp("--programmer", "usbasp", "--mcu", "atmega328p", "--hex", str(big), "--dry-run"),
                 "not a whole atmega328p flash with its bootloader")
     else:
@@ -240,7 +241,7 @@ def test_real_avrdude_against_a_simulated_programmer(fake_programmer):
     run = flash_isp("--programmer", "stk500v1", "--port", fake_programmer.port, "--mcu", mcu)
     assert run.returncode == 0, run.stderr[-3000:]
     assert "failed" not in run.stderr and "error" not in run.stderr, run.stderr[-3000:]
-    boot = mcu in ax12_fuses.BOOTLOADER_MCUS  # the merged HEX: application, record page, bootloader
+    boot = mcu in ax12_fuses.BOOTLOADER_MCUS  # the merged HEX: application, record, bootloader
     image = IntelHex(os.path.join(BUILD, "firmware", f"ax12-ax12-{mcu}{'-merged' if boot else ''}.hex"))
     written = bytes(fake_programmer.flash)
     for start, stop in image.segments():

@@ -42,8 +42,7 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
 }
 
 #if DXL_HAS_BOOTLOADER
-void dxl_after_port_enter_bootloader(void *port, const uint8_t *table) {
-  (void)table;
+void dxl_after_port_enter_bootloader(void *port) {
   log_event(port, "bootloader ");
 }
 #endif
@@ -170,8 +169,8 @@ static void test_the_bootloader_instruction_is_answered_then_enters_the_bootload
   assert_true(dxl_after_waits_for_reply(r.after));
 }
 
-/* A pending store of the settings is started before the bootloader is asked for (the port then
- * waits for it to finish: firmware/app/main.c). */
+/* A pending store of the settings is started before the bootloader is asked for (the port
+ * enters it only once no store is under way: firmware/app/link_port.c). */
 static void test_a_store_under_way_comes_before_the_bootloader(void **state) {
   (void)state;
   dxl_servo_t servo;

@@ -35,8 +35,12 @@ const char *harness_elf_path(const char *profile, const char *mcu) {
 }
 
 void harness_open(harness_t *h, const char *profile, const char *mcu, unsigned master_baud) {
+  harness_open_elf(h, harness_elf_path(profile, mcu), profile, mcu, master_baud);
+}
+
+void harness_open_elf(harness_t *h, const char *elf, const char *profile, const char *mcu, unsigned master_baud) {
   memset(h, 0, sizeof(*h));
-  snprintf(h->elf, sizeof(h->elf), "%s", harness_elf_path(profile, mcu));
+  snprintf(h->elf, sizeof(h->elf), "%s", elf);
   if (access(h->elf, R_OK) != 0) {
     if (!AX12_FIRMWARE_REQUIRED) {
       fprintf(stderr, "skipped: no firmware ELF %s\n", h->elf);

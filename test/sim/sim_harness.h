@@ -45,6 +45,8 @@ const char *harness_elf_path(const char *profile, const char *mcu);
  * Skips the test (cmocka skip) when the ELF is missing and the firmware is not part of the
  * build, fails it when it should be there. */
 void harness_open(harness_t *h, const char *profile, const char *mcu, unsigned master_baud);
+/* The same with the ELF at elf (of that profile and MCU). */
+void harness_open_elf(harness_t *h, const char *elf, const char *profile, const char *mcu, unsigned master_baud);
 /* Stops cleanly: runs the servos until their EEPROM is quiet (at most HARNESS_SETTLE_MS of
  * simulated time, as the emulator does on SIGTERM) and writes their state files. */
 #define HARNESS_SETTLE_MS 500u

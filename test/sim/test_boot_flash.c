@@ -1,14 +1,14 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* A servo whose flash holds a bootloader beside the application (model/simavr/servo_boot.c)
  * and changes its flash with SPM (servo_flash.c), through simavr, with two small programs
- * instead of the firmware: fw/boot_spm.c at the boot section (0x7800), which erases and
- * writes one page, and fw/boot_app.c built twice (two builds of one application). Checks:
- * every reset starts at 0x7800 and clears GPIOR1/GPIOR2; the application record is
- * boot_record_build over the application's bytes; SPM takes 4 ms per page erase or write
- * with SPMEN and RWWSB as on silicon; the flash reaches servo-<n>.flash at the end of the
- * step of the write, survives destroying and recreating the servo, and is dropped (the file
- * removed) when the application is another build or the file is not a flash image; SPM from
- * the application section does nothing. */
+ * instead of the firmware: fw/boot_spm.c at the boot section (0x7E00, the top 512 B), which
+ * erases and writes one page, and fw/boot_app.c built twice (two builds of one application).
+ * Checks: every reset starts at 0x7E00; the application record is boot_record_build with the
+ * check value of the application's bytes; SPM takes 4 ms per page erase or write with SPMEN
+ * and RWWSB as on silicon; the flash reaches servo-<n>.flash at the end of the step of the
+ * write, survives destroying and recreating the servo, and is dropped (the file removed) when
+ * the application is another build or the file is not a flash image; SPM from below the boot
+ * section does nothing. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -31,11 +31,12 @@
 #include "sim_harness.h"
 
 #define FLASH_BYTES 32768u
-#define BOOT_START 0x7800u
-#define RECORD_AT 0x7780u /* BOOT_START - the ATmega328P's 128-byte page */
+#define BOOT_START 0x7E00u
+#define RECORD_AT 0x7DFCu /* BOOT_START - BOOT_RECORD_BYTES */
 #define PAGE_BYTES 128u
 #define TEST_PAGE 0x1000u /* fw/boot_spm.c */
-/* ATmega328P data addresses of the general-purpose I/O registers. */
+/* ATmega328P data addresses of the general-purpose I/O registers (fw/boot_spm.c reports in
+ * them). */
 #define GPIOR0_ADDR 0x3Eu
 #define GPIOR1_ADDR 0x4Au
 #define GPIOR2_ADDR 0x4Bu
@@ -83,7 +84,7 @@ static uint32_t step_one_instruction(servo_t *servo) {
   return pc;
 }
 
-static void test_every_reset_starts_at_the_boot_section_with_gpior1_and_gpior2_cleared(void **state) {
+static void test_every_reset_starts_at_the_boot_section(void **state) {
   (void)state;
   world_t *world = open_world(AX12_BOOT_APP1_ELF, AX12_BOOT_SPM_ELF);
   servo_t *servo = add_servo(world, NULL);
@@ -92,18 +93,11 @@ static void test_every_reset_starts_at_the_boot_section_with_gpior1_and_gpior2_c
   assert_true(servo->avr->pc > BOOT_START && servo->avr->pc < FLASH_BYTES); /* the vector's jump, inside */
   world_run_until(world, sim_ms(10));
   assert_int_equal(io(servo, GPIOR0_ADDR), 2); /* the program ran: the page is written */
-  /* The application's request mark, then a reset (as the watchdog's): the mark is gone. */
-  servo->avr->data[GPIOR1_ADDR] = 0xB0;
-  servo->avr->data[GPIOR2_ADDR] = 0x07;
-  servo_reset(servo);
+  servo_reset(servo); /* as the watchdog's */
   assert_int_equal(servo->avr->pc, BOOT_START);
-  assert_int_equal(io(servo, GPIOR1_ADDR), 0);
-  assert_int_equal(io(servo, GPIOR2_ADDR), 0);
   assert_int_equal(step_one_instruction(servo), BOOT_START);
-  servo->avr->data[GPIOR1_ADDR] = 0xB0;
   servo_power_cycle(servo);
   assert_int_equal(servo->avr->pc, BOOT_START);
-  assert_int_equal(io(servo, GPIOR1_ADDR), 0);
   world_run_until(world, world->now + sim_ms(1));
   assert_int_equal(io(servo, GPIOR0_ADDR), 3); /* started again from the boot section: found its page */
   world_destroy(world);
@@ -123,7 +117,7 @@ static void test_without_a_bootloader_resets_start_at_0_and_no_record_is_written
   world_destroy(world);
 }
 
-static void test_the_record_is_boot_record_build_over_the_application_bytes(void **state) {
+static void test_the_record_is_boot_record_build_with_the_application_bytes_check_value(void **state) {
   (void)state;
   /* The application's bytes as simavr reads its ELF, apart from the emulator's load. */
   elf_firmware_t app;
@@ -131,21 +125,21 @@ static void test_the_record_is_boot_record_build_over_the_application_bytes(void
   assert_int_equal(elf_read_firmware(AX12_BOOT_APP1_ELF, &app), 0);
   assert_true(app.flashsize > 0 && app.flashsize < RECORD_AT);
   uint8_t expected[BOOT_RECORD_BYTES];
-  boot_record_build(expected, (uint16_t)app.flashsize,
-                    boot_crc_bytes(BOOT_CRC_INITIAL, app.flash, (uint16_t)app.flashsize));
+  boot_record_build(expected, app.flashsize, boot_check_bytes(0, app.flash, app.flashsize));
 
   world_t *world = open_world(AX12_BOOT_APP1_ELF, AX12_BOOT_SPM_ELF);
   servo_t *servo = add_servo(world, NULL);
   const uint8_t *flash = servo->avr->flash;
   assert_memory_equal(flash + RECORD_AT, expected, BOOT_RECORD_BYTES);
-  for (unsigned i = RECORD_AT + BOOT_RECORD_BYTES; i < BOOT_START; i++) {
+  for (unsigned i = app.flashsize; i < RECORD_AT; i++) {
     assert_int_equal(flash[i], 0xFF);
   }
   assert_memory_equal(flash, app.flash, app.flashsize);
-  uint16_t length = 0, crc = 0;
-  assert_true(boot_record_parse(flash + RECORD_AT, RECORD_AT, &length, &crc));
+  uint32_t length = 0;
+  uint16_t check = 0;
+  assert_true(boot_record_parse(flash + RECORD_AT, BOOT_START, &length, &check));
   assert_int_equal(length, app.flashsize);
-  assert_int_equal(crc, boot_crc_bytes(BOOT_CRC_INITIAL, flash, length)); /* valid, as the bootloader checks */
+  assert_true(boot_app_valid(flash, FLASH_BYTES)); /* valid, as the bootloader checks */
   /* The bootloader's bytes at the boot section (its reset vector: a JMP, 0x940C). */
   assert_int_equal(flash[BOOT_START] | (flash[BOOT_START + 1] << 8), 0x940C);
   world_destroy(world);
@@ -285,15 +279,15 @@ static void test_a_bootloader_outside_the_boot_section_is_refused(void **state) 
   world_t *world = world_create(AX12_BOOT_APP1_ELF, "atmega328p", EEPROM_PROFILE_AX12, err, sizeof(err));
   assert_non_null(world);
   assert_false(world_set_bootloader(world, AX12_BOOT_APP2_ELF, err, sizeof(err)));
-  assert_non_null(strstr(err, "not at the boot section's start 0x7800"));
+  assert_non_null(strstr(err, "not at the boot section's start 0x7e00"));
   world_destroy(world);
 }
 
 int main(void) {
   const struct CMUnitTest tests[] = {
-      cmocka_unit_test(test_every_reset_starts_at_the_boot_section_with_gpior1_and_gpior2_cleared),
+      cmocka_unit_test(test_every_reset_starts_at_the_boot_section),
       cmocka_unit_test(test_without_a_bootloader_resets_start_at_0_and_no_record_is_written),
-      cmocka_unit_test(test_the_record_is_boot_record_build_over_the_application_bytes),
+      cmocka_unit_test(test_the_record_is_boot_record_build_with_the_application_bytes_check_value),
       cmocka_unit_test(test_spm_takes_4_ms_per_page_with_spmen_and_rwwsb_as_on_silicon),
       cmocka_unit_test(test_a_flash_changed_by_spm_is_persisted_kept_and_dropped_for_another_build),
       cmocka_unit_test(test_a_flash_file_that_is_no_image_of_the_mcu_is_dropped),

@@ -252,8 +252,7 @@ void dxl_after_port_set_baud(void *port, uint8_t baud_register) {
 }
 
 #if DXL_HAS_BOOTLOADER
-void dxl_after_port_enter_bootloader(void *port, const uint8_t *table) {
-  (void)table;
+void dxl_after_port_enter_bootloader(void *port) {
   fake_uart_log(port, "bootloader ");
 }
 #endif

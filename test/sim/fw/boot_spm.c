@@ -1,7 +1,7 @@
 /* SPDX-License-Identifier: GPL-3.0-or-later */
 /* A tiny stand-in bootloader for the emulator's boot and self-programming tests
  * (test/sim/test_boot_flash.c, test/sim/python/test_boot.py): an ATmega328P program linked at
- * the boot section's start (0x7800) that, when the page at TEST_PAGE is blank, erases it and
+ * the boot section's start (0x7E00, the top 512 B) that, when the page at TEST_PAGE is blank, erases it and
  * writes a pattern with SPM the way a bootloader does (avr-libc's boot.h, polling SPMEN), then
  * turns the USART receiver on (the emulator's "listening") and waits forever.
  *

@@ -116,6 +116,8 @@ def rdt_writes_logged(log_path):
     whole = text[: text.rfind("\n") + 1]
     replies, last_us, waiting = [], 0.0, False
     for row in csv.DictReader(io.StringIO(whole)):
+        if not row["end_us"] or row["params"] is None:
+            break  # a malformed row (a whole line with fields missing): the log ends there
         last_us = float(row["end_us"])
         params = row["params"].split()
         if row["sender"] == "client":
