@@ -7,16 +7,18 @@ link-time optimisation (flash_by_module). The code states contracts; the sizes l
 import os
 import re
 import subprocess
+import sys
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(REPO, "python"))
+import ax12_fuses  # noqa: E402
 DOC = os.path.join(REPO, "docs", "firmware.md")
 BEGIN = "<!-- sizes: written by scripts/bench --sizes, checked by scripts/bench --sizes --check -->"
 END = "<!-- /sizes -->"
 
-FLASH_BYTES = {"atmega88": 8192, "atmega328p": 32768}
-# What a part's application may use: the ATmega88 has no boot section (yet); the ATmega328P's
-# bootloader takes 2048 B and the application record's page 128 B (docs/bootloader.md).
-APP_BUDGET = {"atmega88": 8192, "atmega328p": 32768 - 2048 - 128}
+# What a part's application may use (python/ax12_fuses.py's part facts): up to the record below
+# the 512 B boot section (docs/bootloader.md).
+APP_BUDGET = {name: mcu.app_limit_bytes for name, mcu in ax12_fuses.MCUS.items()}
 RAM_BUDGET_ATMEGA88 = 768  # static RAM + deepest stack + nesting margin (docs/firmware.md)
 NESTING_MARGIN = 14  # TIMER1_COMPB's frame and the ISR nested in it (docs/firmware.md)
 
@@ -88,10 +90,11 @@ def sizes_table(build):
             else:
                 cells += ["", ""]
             lines.append("| " + " | ".join(cells) + " |")
-    boot = os.path.join(fw, "ax12-boot-atmega328p.elf")
-    if os.path.exists(boot):
+    for mcu in ("atmega88", "atmega328p"):
+        boot = os.path.join(fw, "ax12-boot-%s.elf" % mcu)
         flash, ram = avr_size(boot)
-        lines.append("| `ax12-boot-atmega328p` | %d B of its 2048 B boot section | %d B | | |" % (flash, ram))
+        lines.append("| `ax12-boot-%s` | %d B of its %d B boot section | %d B | | |"
+                     % (mcu, flash, ax12_fuses.BOOT_SECTION_BYTES, ram))
     modules, total = flash_by_module(build)
     lines += ["", "| source file (ATmega328P, ax12, without LTO) | flash |", "|---|---|"]
     lines += ["| `%s` | %d B |" % (name, size) for name, size in modules]
