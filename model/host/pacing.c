@@ -26,6 +26,16 @@ void pacing_hold_rt(pacing_t *pacing, int priority) {
   rt_guard_start(&pacing->rt, pacing_wall_us());
 }
 
+/* The real-time policy taken again by this thread (rt_guard held it again); given up for good
+ * when no longer allowed. */
+static void retake_policy(pacing_t *pacing) {
+  int priority = pacing->rt_priority;
+  char why[240];
+  if (rt_policy_take(pthread_self(), &priority, why, sizeof(why)) != 0) {
+    rt_guard_give_up(&pacing->rt); /* no longer allowed: the ordinary policy from now on */
+  }
+}
+
 void pacing_release_rt(pacing_t *pacing) {
   if (!pacing->rt_wanted) {
     return;
@@ -50,7 +60,9 @@ void pacing_restart(pacing_t *pacing, sim_cycles_t sim_now) {
   pacing->started_sim = sim_now;
   pacing->max_behind_us = pacing->total_dropped_us = pacing->slept_us = 0.0;
   pacing->realignments = 0;
-  rt_guard_restart(&pacing->rt, pacing->wall0_us);
+  if (pacing->rt_wanted && rt_guard_restart(&pacing->rt, pacing->wall0_us)) {
+    retake_policy(pacing); /* dropped while the boot ran late: the serving starts at it */
+  }
 }
 
 void pacing_stop(pacing_t *pacing, sim_cycles_t sim_now) {
@@ -81,14 +93,7 @@ static void guard_rt(pacing_t *pacing, double ahead_us, bool will_block) {
       rt_guard_blocked(&pacing->rt, pacing_wall_us());
       break;
     case RT_GUARD_DROP: rt_policy_drop(pthread_self()); break;
-    case RT_GUARD_RETAKE: {
-      int priority = pacing->rt_priority;
-      char why[240];
-      if (rt_policy_take(pthread_self(), &priority, why, sizeof(why)) != 0) {
-        rt_guard_give_up(&pacing->rt); /* no longer allowed: the ordinary policy from now on */
-      }
-      break;
-    }
+    case RT_GUARD_RETAKE: retake_policy(pacing); break;
     case RT_GUARD_RUN: break;
   }
 }

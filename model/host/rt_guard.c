@@ -9,13 +9,19 @@ void rt_guard_start(rt_guard_t *g, double now_us) {
                     .last_block_us = now_us};
 }
 
-void rt_guard_restart(rt_guard_t *g, double now_us) {
+bool rt_guard_restart(rt_guard_t *g, double now_us) {
   g->yields = g->drops = 0;
   g->dropped_us = 0.0;
   g->dropped_at_us = now_us;
   g->late = false;
   g->on_time_since_us = now_us;
   g->last_block_us = now_us;
+  if (g->held || g->given_up) {
+    return false;
+  }
+  g->held = true;
+  g->late_since_us = now_us;
+  return true;
 }
 
 /* A late check starts a late spell; an on-time one ends it, but for a moment after a

@@ -57,8 +57,10 @@ typedef struct {
 void rt_guard_start(rt_guard_t *g, double now_us);
 
 /* From now_us the counts start again and the lateness so far is forgotten (a boot slower than
- * real time is no late spell of the serving after it); the policy stays as it is. */
-void rt_guard_restart(rt_guard_t *g, double now_us);
+ * real time is no late spell of the serving after it). A policy dropped during that boot (and
+ * not given up) counts as held again from now_us, on probation: returns true, and the caller
+ * takes it again. */
+bool rt_guard_restart(rt_guard_t *g, double now_us);
 
 /* At each pacing check: the simulation is ahead_us ahead of the clock (negative: late), and
  * will_block tells whether the thread is about to sleep. Returns what to do first. */

@@ -164,6 +164,31 @@ static void test_a_thread_that_may_not_take_it_again_stays_ordinary(void **state
   assert_int_equal(r.retakes, 0);
 }
 
+/* A boot slower than real time may drop the policy; the serving after it (rt_guard_restart, at
+ * `ready:`) starts at the policy again, its counts from zero, and drops it only after a late
+ * spell of its own. */
+static void test_a_policy_dropped_during_the_boot_is_taken_again_for_the_serving(void **state) {
+  (void)state;
+  rt_guard_t g;
+  rt_guard_start(&g, 0.0);
+  run_t r = {0};
+  run_behind(&g, &r, 0.05, 2.0 * RT_GUARD_LATE_MAX_US, 100.0); /* the boot: far behind */
+  assert_false(g.held);
+  assert_true(g.drops >= 1);
+  assert_true(rt_guard_restart(&g, r.now_us));
+  assert_true(g.held);
+  assert_int_equal(g.drops, 0);
+  assert_int_equal(g.yields, 0);
+  assert_false(rt_guard_restart(&g, r.now_us)); /* held: nothing to take again */
+  r.lag_us = 0.0;
+  run_behind(&g, &r, 0.05, RT_GUARD_LATE_MAX_US / 2.0, 100.0); /* serving behind: yields first */
+  assert_true(g.held);
+  assert_true(g.yields > 0);
+  run_behind(&g, &r, 0.05, RT_GUARD_LATE_MAX_US, 100.0); /* then drops after its own spell */
+  assert_false(g.held);
+  assert_int_equal(g.drops, 1);
+}
+
 int main(void) {
   const struct CMUnitTest tests[] = {
       cmocka_unit_test(test_a_thread_behind_yields_every_run_max),
@@ -173,6 +198,7 @@ int main(void) {
       cmocka_unit_test(test_a_thread_on_time_that_sleeps_is_left_alone),
       cmocka_unit_test(test_a_world_late_now_and_then_keeps_the_policy),
       cmocka_unit_test(test_a_thread_that_may_not_take_it_again_stays_ordinary),
+      cmocka_unit_test(test_a_policy_dropped_during_the_boot_is_taken_again_for_the_serving),
   };
   return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -183,7 +183,7 @@ def test_a_world_slower_than_real_time_leaves_its_cpu_to_a_busy_program_beside_i
     if not may_take_fifo():
         pytest.skip("the emulator runs at the ordinary policy here: the kernel shares the CPU")
     cpu = sorted(os.sched_getaffinity(0))[0]
-    emu = emulator("--ids", "1-250", "--state-dir", str(tmp_path), "--stats", "--adapter", "wire", "--bootloader", "none",
+    emu = emulator("--ids", "1-250", "--state-dir", str(tmp_path), "--stats", "--adapter", "wire",
                    emu_command=["taskset", "-c", str(cpu), EMU], timeout=120)
     flood = packet(0xFE, T.INST_WRITE, [T.LED, 0]) * 64  # broadcast: no replies
     fd = os.open(emu.device, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
