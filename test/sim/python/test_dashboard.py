@@ -57,19 +57,27 @@ def downloads(tmp_path):
     return folder
 
 
-@pytest.fixture
-def browser(downloads):
+def headless_chromium(*args, prefs=None):
+    """Debian's Chromium, headless through its driver (scripts/setup --tests), with these
+    command-line arguments and preferences."""
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     driver_path = shutil.which("chromedriver") or "/usr/bin/chromedriver"
     if not chromium or not os.path.exists(driver_path):
         pytest.fail("Chromium and its driver are missing: scripts/setup --tests installs them")
     options = webdriver.ChromeOptions()
     options.binary_location = chromium
-    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--window-size=1400,1900"):
+    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage") + args:
         options.add_argument(arg)
-    options.add_experimental_option("prefs", {"download.default_directory": str(downloads),
-                                              "download.prompt_for_download": False})
-    driver = webdriver.Chrome(service=Service(driver_path), options=options)
+    if prefs:
+        options.add_experimental_option("prefs", prefs)
+    return webdriver.Chrome(service=Service(driver_path), options=options)
+
+
+@pytest.fixture
+def browser(downloads):
+    driver = headless_chromium("--disable-gpu", "--window-size=1400,1900",
+                               prefs={"download.default_directory": str(downloads),
+                                      "download.prompt_for_download": False})
     yield driver
     driver.quit()
 

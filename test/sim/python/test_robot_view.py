@@ -7,23 +7,20 @@ changes (a payload, gravity, a push) reach the running robot, read back through 
 socket. Screenshots are kept in $AX12_ARTIFACT_DIR (build/test-artifacts)."""
 import io
 import os
-import shutil
 import time
 
 import dynamixel_sdk as sdk
 import numpy as np
 import pytest
 from PIL import Image
-from selenium import webdriver
 from selenium.common.exceptions import TimeoutException
-from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select
 
 import ax12_control
 import ax12_table as T
-from test_dashboard import ARTIFACTS, free_port, message, open_port, retried, wait_for
+from test_dashboard import ARTIFACTS, free_port, headless_chromium, message, open_port, retried, wait_for
 
 # Chromium without a GPU draws WebGL with SwiftShader; these make it do so whatever the build's
 # default (Debian's Chromium also does without them).
@@ -34,15 +31,7 @@ DARK_LEVEL = 90         # the AX-12's black case and the arm's base, lit: every 
 
 @pytest.fixture
 def browser():
-    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
-    driver_path = shutil.which("chromedriver") or "/usr/bin/chromedriver"
-    if not chromium or not os.path.exists(driver_path):
-        pytest.fail("Chromium and its driver are missing: scripts/setup --tests installs them")
-    options = webdriver.ChromeOptions()
-    options.binary_location = chromium
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage", "--window-size=1400,1000") + WEBGL_FLAGS:
-        options.add_argument(arg)
-    driver = webdriver.Chrome(service=Service(driver_path), options=options)
+    driver = headless_chromium("--window-size=1400,1000", *WEBGL_FLAGS)
     yield driver
     driver.quit()
 
